@@ -1,0 +1,101 @@
+"""The one exception hierarchy of alpaca_zwo.
+
+Every error the package raises on purpose derives from :class:`AlpacaZwoError`, so a caller can
+catch "anything we meant" in one place and let genuine bugs surface as tracebacks. The ASCOM
+error family lives here too (not in the HTTP layer) because the Telescope semantics below HTTP
+decide which ASCOM code applies; the HTTP layer only renders them.
+"""
+
+from __future__ import annotations
+
+
+class AlpacaZwoError(Exception):
+    """Root of every error this package raises deliberately."""
+
+
+class ProtocolError(AlpacaZwoError):
+    """Raised when text on the mount line does not match the ZWO command language."""
+
+
+class MountReplyError(AlpacaZwoError):
+    """Raised when the mount refuses a command with an ``eN#`` code or a failure byte."""
+
+    def __init__(self, request: str, reply: str, code: int | None = None, meaning: str = "") -> None:
+        self.request = request
+        self.reply = reply
+        self.code = code
+        self.meaning = meaning
+        detail = f"e{code}: {meaning}" if code is not None else f"reply {reply!r}"
+        super().__init__(f"mount refused {request}: {detail}")
+
+
+class LinkError(AlpacaZwoError):
+    """Raised when the byte pipe to the mount is closed, unplugged or unreachable."""
+
+
+class LinkTimeout(LinkError):
+    """Raised when the mount does not complete a reply within the link timeout."""
+
+
+class ConfigError(AlpacaZwoError):
+    """Raised when a configuration file or command-line value is invalid; names file, key and reason."""
+
+
+class AlpacaError(AlpacaZwoError):
+    """Raised for an ASCOM-level failure; rendered as HTTP 200 with ErrorNumber/ErrorMessage."""
+
+    number: int = 0x500
+
+    def __init__(self, message: str, number: int | None = None) -> None:
+        if number is not None:
+            self.number = number
+        self.message = message
+        super().__init__(message)
+
+
+class MemberNotImplemented(AlpacaError):
+    """Raised when the mount lacks the capability a member needs (ASCOM 0x400)."""
+
+    number = 0x400
+
+
+class InvalidValue(AlpacaError):
+    """Raised when a well-formed value is out of range or not allowed (ASCOM 0x401)."""
+
+    number = 0x401
+
+
+class ValueNotSet(AlpacaError):
+    """Raised when a value is read before it was ever written, e.g. the targets (ASCOM 0x402)."""
+
+    number = 0x402
+
+
+class NotConnected(AlpacaError):
+    """Raised when a member needs the device connected and it is not (ASCOM 0x407)."""
+
+    number = 0x407
+
+
+class Parked(AlpacaError):
+    """Raised when a motion, sync or tracking request arrives while the mount is parked (ASCOM 0x408)."""
+
+    number = 0x408
+
+
+class InvalidOperation(AlpacaError):
+    """Raised when a request is valid but not allowed in the current state (ASCOM 0x40B)."""
+
+    number = 0x40B
+
+
+class ActionNotImplemented(AlpacaError):
+    """Raised when Action() names an action this driver does not support (ASCOM 0x40C)."""
+
+    number = 0x40C
+
+
+class DriverError(AlpacaError):
+    """Raised when the mount or its link failed to carry out a request (ASCOM 0x500 and up)."""
+
+    number = 0x500
