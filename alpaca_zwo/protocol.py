@@ -322,7 +322,11 @@ def parse_status(text: str) -> MountStatus:
     if not match or not (match.group(1) or match.group(2)):
         raise ProtocolError(f"not a :GU# status: {text!r}")
     letters = set(match.group(1))
-    mode = MountMode.ALTAZ if "Z" in letters else MountMode.EQUATORIAL if "G" in letters else MountMode.UNKNOWN
+    mode = MountMode.UNKNOWN
+    if "Z" in letters:
+        mode = MountMode.ALTAZ
+    elif "G" in letters:
+        mode = MountMode.EQUATORIAL
     return MountStatus(
         tracking="n" not in letters,
         slewing="N" not in letters,
