@@ -1,0 +1,93 @@
+"""The HTTP server: waitress in a background thread, startable and stoppable from tests and the CLI.
+
+waitress's own ``serve()`` blocks and only stops on a signal; the server and the tests need a
+handle that binds first (port 0 -> a free port, known before any client connects), runs in a
+daemon thread, and shuts down cleanly and promptly on ``close()``.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from typing import Any
+
+from waitress import wasyncore
+from waitress.server import create_server
+from waitress.trigger import trigger
+
+log = logging.getLogger("alpaca_zwo.alpaca.http")
+
+
+class HttpServer:
+    """A waitress server bound at construction; ``start()`` serves, ``close()`` stops and joins."""
+
+    def __init__(self, app: Any, host: str = "0.0.0.0", port: int = 0, *, threads: int = 8,
+                 channel_timeout: int = 60, connection_limit: int = 100,
+                 max_request_body_size: int | None = None) -> None:
+        self._map: dict[int, Any] = {}
+        options: dict[str, Any] = {
+            "host": host,
+            "port": port,
+            "threads": threads,
+            # Idle keep-alive connections are dropped after this long; clients poll far more often.
+            "channel_timeout": channel_timeout,
+            "connection_limit": connection_limit,
+            # No reverse proxy is trusted, so X-Forwarded-* cannot spoof a client's address.
+            "clear_untrusted_proxy_headers": True,
+            "ident": "alpaca-zwo",
+        }
+        if max_request_body_size is not None:
+            options["max_request_body_size"] = max_request_body_size
+        self._server = create_server(app, map=self._map, **options)
+        self._thread: threading.Thread | None = None
+        self._closed = False
+        self.host = host
+
+    @property
+    def port(self) -> int:
+        """The bound port (the real one when constructed with port 0)."""
+        server = self._server
+        if hasattr(server, "effective_port"):
+            return int(server.effective_port)
+        return int(server.effective_listen[0][1])
+
+    def start(self) -> None:
+        """Serve in a daemon thread so a hung client can never keep the process alive."""
+        if self._thread is not None:
+            raise RuntimeError("HttpServer already started")
+        self._thread = threading.Thread(target=self._server.run, name=f"http-{self.port}", daemon=True)
+        self._thread.start()
+        log.info("Alpaca HTTP server listening on %s:%d", self.host, self.port)
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Stop accepting, close every connection, stop the worker threads; idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        thread = self._thread
+        if thread is not None and thread.is_alive():
+            # Sockets belong to the loop thread; ask it to close them rather than racing its select().
+            self._trigger().pull_trigger(self._close_sockets)
+            thread.join(timeout)
+            if thread.is_alive():
+                log.warning("HTTP server loop did not stop within %.1f s", timeout)
+        else:
+            self._close_sockets()
+        self._server.task_dispatcher.shutdown(timeout=timeout)
+
+    def _close_sockets(self) -> None:
+        # An empty map ends waitress's loop after the current poll.
+        wasyncore.close_all(self._map, ignore_all=True)
+
+    def _trigger(self) -> trigger:
+        for dispatcher in list(self._map.values()):
+            if isinstance(dispatcher, trigger):
+                return dispatcher
+        raise RuntimeError("waitress trigger not found")
+
+    def __enter__(self) -> HttpServer:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

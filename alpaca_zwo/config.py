@@ -1,0 +1,570 @@
+"""Server settings: immutable dataclasses, stored as TOML, validated key by key.
+
+Settings are frozen so that the threads serving HTTP, the poller and the setup page can share one
+object without locks; a change is a new object made with :func:`dataclasses.replace` and published
+by whoever owns it. Every key of a file is checked for type and range and unknown keys are refused,
+because a typo in a hand-edited file (``prot = 8080``) that silently falls back to a default is
+much harder to diagnose than a refusal to start. Problems are reported as one :class:`ConfigError`
+naming the file, the key path and the reason, so the CLI can print it without a traceback.
+"""
+
+from __future__ import annotations
+
+import bisect
+import contextlib
+import dataclasses
+import difflib
+import itertools
+import math
+import os
+import re
+import sys
+import tempfile
+import uuid
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import platformdirs
+import tomli_w
+
+from alpaca_zwo._exceptions import ConfigError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised only on 3.10
+    import tomli as tomllib
+
+__all__ = [
+    "DeviceSettings",
+    "EmulatorSettings",
+    "LimitSettings",
+    "LoggingSettings",
+    "ParkSettings",
+    "SafetySettings",
+    "ServerSettings",
+    "Settings",
+    "SiteSettings",
+    "assign_unique_ids",
+    "default_config_path",
+    "horizon_altitude_at",
+    "load_settings",
+    "save_settings",
+    "settings_from_dict",
+    "settings_to_dict",
+    "validate_settings",
+]
+
+APP_NAME = "alpaca-zwo"
+CONFIG_FILE_NAME = "config.toml"
+
+_FILE_HEADER = (
+    "# alpaca-zwo settings.\n"
+    "# alpaca-zwo rewrites this file when it saves settings (first start, setup page), so comments\n"
+    "# added here are not kept. Edit it while the server is stopped.\n\n"
+)
+
+
+# --- value checks -----------------------------------------------------------------------------------
+# Each field carries its check in its metadata, so the dataclass is the single table of keys,
+# defaults and allowed values; the parser, the unknown-key check and the docs read it from there.
+
+
+class _Invalid(Exception):
+    """A value failed its check; the message is the reason, the caller adds file and key."""
+
+
+Check = Callable[[Any], Any]
+
+
+def _kind(value: Any) -> str:
+    """TOML-flavoured name of a value's type, for messages aimed at people editing the file."""
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, int):
+        return "an integer"
+    if isinstance(value, float):
+        return "a float"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, Mapping):
+        return "a table"
+    if isinstance(value, (list, tuple)):
+        return "an array"
+    return f"a {type(value).__name__}"
+
+
+def _int(lo: int, hi: int, *, also: tuple[int, ...] = ()) -> Check:
+    def check(value: Any) -> int:
+        # bool is an int subclass in Python but a different type in TOML
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise _Invalid(f"must be an integer, not {_kind(value)}")
+        if not (lo <= value <= hi or value in also):
+            extra = "".join(f" or {a}" for a in also)
+            raise _Invalid(f"must be between {lo} and {hi}{extra}, got {value}")
+        return value
+
+    return check
+
+
+def _float(lo: float, hi: float) -> Check:
+    def check(value: Any) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise _Invalid(f"must be a number, not {_kind(value)}")
+        number = float(value)
+        if not math.isfinite(number):  # TOML allows inf and nan
+            raise _Invalid(f"must be a finite number, got {value}")
+        if not lo <= number <= hi:
+            raise _Invalid(f"must be between {lo:g} and {hi:g}, got {value}")
+        return number
+
+    return check
+
+
+def _bool(value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise _Invalid(f"must be true or false, not {_kind(value)}")
+    return value
+
+
+def _str(*, nonempty: bool = False, pattern: str | None = None, hint: str = "") -> Check:
+    compiled = re.compile(pattern) if pattern else None
+
+    def check(value: Any) -> str:
+        if not isinstance(value, str):
+            raise _Invalid(f"must be a string, not {_kind(value)}")
+        if nonempty and not value.strip():
+            raise _Invalid("must not be empty")
+        if compiled and value and not compiled.fullmatch(value):
+            raise _Invalid(f"must be {hint}, got {value!r}")
+        return value
+
+    return check
+
+
+def _choice(*choices: str) -> Check:
+    def check(value: Any) -> str:
+        if isinstance(value, str):
+            for choice in choices:  # case-insensitive, stored in the canonical spelling
+                if value.lower() == choice.lower():
+                    return choice
+        shown = value if isinstance(value, str) else _kind(value)
+        raise _Invalid(f"must be one of {', '.join(repr(c) for c in choices)}, got {shown!r}")
+
+    return check
+
+
+def _horizon(value: Any) -> tuple[tuple[float, float], ...]:
+    """An array of [azimuth, altitude] pairs; sorted by azimuth, duplicates refused."""
+    if not isinstance(value, (list, tuple)):
+        raise _Invalid(f"must be an array of [azimuth, altitude] pairs, not {_kind(value)}")
+    azimuth = _float(0.0, 360.0)
+    altitude = _float(-10.0, 90.0)
+    points: list[tuple[float, float]] = []
+    for i, point in enumerate(value):
+        if not isinstance(point, (list, tuple)) or len(point) != 2:
+            raise _Invalid(f"point {i} must be an [azimuth, altitude] pair, got {point!r}")
+        try:
+            az = azimuth(point[0])
+        except _Invalid as exc:
+            raise _Invalid(f"point {i} azimuth {exc}") from None
+        try:
+            alt = altitude(point[1])
+        except _Invalid as exc:
+            raise _Invalid(f"point {i} altitude {exc}") from None
+        points.append((az, alt))
+    points.sort()
+    for (a1, _), (a2, _) in itertools.pairwise(points):
+        if a1 == a2:
+            raise _Invalid(f"azimuth {a1:g} appears more than once")
+    return tuple(points)
+
+
+def _setting(default: Any, check: Check) -> Any:
+    """A dataclass field whose metadata carries the check used when loading."""
+    return field(default=default, metadata={"check": check})
+
+
+# --- settings -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, kw_only=True)
+class ServerSettings:
+    """How the HTTP server, discovery and advertisement are exposed on the network."""
+
+    host: str = _setting("0.0.0.0", _str(nonempty=True, pattern=r"\S+", hint="a host name or address"))
+    port: int = _setting(11111, _int(0, 65535))
+    discovery_port: int = _setting(32227, _int(0, 65535))  # 0 = no UDP discovery responder
+    mdns: bool = _setting(False, _bool)
+    threads: int = _setting(16, _int(1, 256))
+    max_body_bytes: int = _setting(65536, _int(1024, 16 * 1024 * 1024))
+    basic_auth_user: str = _setting("", _str(pattern=r"[^:]+", hint="a name without ':'"))
+    basic_auth_password: str = _setting("", _str())  # both empty = no authentication
+    allow_raw_commands: bool = _setting(False, _bool)
+    location: str = _setting("", _str())
+
+
+@dataclass(frozen=True, kw_only=True)
+class DeviceSettings:
+    """One mount served as one Alpaca Telescope device; its index is the Alpaca device number."""
+
+    name: str = _setting("ZWO AM5", _str(nonempty=True))
+    url: str = _setting("", _str())  # pyserial URL or port; empty = the built-in emulator
+    unique_id: str = _setting("", _str())  # generated once, then never changes (ASCOM UniqueID)
+    baud: int = _setting(9600, _int(1200, 921600))
+    timeout: float = _setting(2.5, _float(0.1, 60.0))
+
+
+@dataclass(frozen=True, kw_only=True)
+class SiteSettings:
+    """Observing site pushed to the mount; degrees with EAST-positive longitude, metres.
+
+    Defaults to Greenwich rather than 0/0 so that a fresh install has a real mid-latitude sky
+    (ConformU skips its pier-side tests within 10 degrees of the equator).
+    """
+
+    latitude: float = _setting(51.4769, _float(-90.0, 90.0))
+    longitude: float = _setting(-0.0005, _float(-180.0, 180.0))
+    elevation: float = _setting(46.0, _float(-300.0, 10000.0))
+
+
+@dataclass(frozen=True, kw_only=True)
+class ParkSettings:
+    """Where Park goes: the mount's home (Dec +90, HA -6 h) or a custom HA/Dec.
+
+    Stored as HA/Dec rather than Alt/Az because that is what stays fixed relative to the mount's
+    axes when the site is edited.
+    """
+
+    mode: Literal["home", "custom"] = _setting("home", _choice("home", "custom"))
+    ha_hours: float = _setting(-6.0, _float(-12.0, 12.0))
+    dec_deg: float = _setting(90.0, _float(-90.0, 90.0))
+
+
+@dataclass(frozen=True, kw_only=True)
+class LimitSettings:
+    """Pointing limits enforced by the server before commands reach the mount.
+
+    ``horizon`` is a list of (azimuth, altitude) points in degrees, interpolated linearly with
+    wrap-around at north; it is kept sorted by azimuth whatever order it is given in.
+    """
+
+    min_altitude_deg: float = _setting(0.0, _float(-10.0, 60.0))
+    horizon: tuple[tuple[float, float], ...] = _setting((), _horizon)
+    meridian_limit_deg: float = _setting(0.0, _float(-15.0, 15.0))
+    meridian_track_past: bool = _setting(False, _bool)
+
+    def __post_init__(self) -> None:
+        points = tuple(sorted((float(az), float(alt)) for az, alt in self.horizon))
+        object.__setattr__(self, "horizon", points)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SafetySettings:
+    """Guards against a client that vanishes mid-motion, and what to do when the server stops."""
+
+    moveaxis_watchdog_s: float = _setting(15.0, _float(1.0, 600.0))
+    on_shutdown: Literal["stop", "park"] = _setting("stop", _choice("stop", "park"))
+    guide_max_ms: int = _setting(3000, _int(1, 60000))
+
+
+@dataclass(frozen=True, kw_only=True)
+class LoggingSettings:
+    """Log verbosity and destination, and how many mount exchanges the traffic trace keeps."""
+
+    level: str = _setting("INFO", _choice("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL"))
+    file: str = _setting("", _str())  # empty = standard error
+    trace_size: int = _setting(2000, _int(0, 1_000_000))
+
+
+@dataclass(frozen=True, kw_only=True)
+class EmulatorSettings:
+    """The built-in mount emulator used by devices whose url is empty."""
+
+    speed: float = _setting(1.0, _float(0.01, 10000.0))  # clock rate relative to real time
+    baud: int = _setting(0, _int(1200, 921600, also=(0,)))  # 0 = unpaced, in-process
+    firmware: str = _setting("1.9.0", _str(nonempty=True, pattern=r"\d+\.\d+\.\d+", hint="like '1.9.0'"))
+    model: str = _setting("AM5", _choice("AM3", "AM5", "AM5N", "AM7"))
+
+
+def _default_devices() -> tuple[DeviceSettings, ...]:
+    return (DeviceSettings(),)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Settings:
+    """Everything the server reads at start-up; ``devices`` is stored as a tuple, any sequence is accepted."""
+
+    server: ServerSettings = field(default_factory=ServerSettings)
+    devices: tuple[DeviceSettings, ...] = field(default_factory=_default_devices)
+    site: SiteSettings = field(default_factory=SiteSettings)
+    park: ParkSettings = field(default_factory=ParkSettings)
+    limits: LimitSettings = field(default_factory=LimitSettings)
+    safety: SafetySettings = field(default_factory=SafetySettings)
+    logging: LoggingSettings = field(default_factory=LoggingSettings)
+    emulator: EmulatorSettings = field(default_factory=EmulatorSettings)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "devices", tuple(self.devices))
+
+
+# Table sections in file order; "devices" is an array of tables and handled on its own.
+_SECTIONS: dict[str, type] = {
+    "server": ServerSettings,
+    "site": SiteSettings,
+    "park": ParkSettings,
+    "limits": LimitSettings,
+    "safety": SafetySettings,
+    "logging": LoggingSettings,
+    "emulator": EmulatorSettings,
+}
+_TOP_LEVEL = ("server", "devices", "site", "park", "limits", "safety", "logging", "emulator")
+
+
+# --- dict <-> settings --------------------------------------------------------------------------
+
+
+class _Problems:
+    """Collects every problem in a file so the user can fix them all in one edit."""
+
+    def __init__(self) -> None:
+        self.items: list[tuple[str, str]] = []
+
+    def add(self, key: str, reason: str) -> None:
+        self.items.append((key, reason))
+
+    def raise_if_any(self, source: str) -> None:
+        if len(self.items) == 1:
+            key, reason = self.items[0]
+            raise ConfigError(f"{source}: {key}: {reason}")
+        if self.items:
+            lines = "".join(f"\n  {key}: {reason}" for key, reason in self.items)
+            raise ConfigError(f"{source}: {len(self.items)} invalid settings:{lines}")
+
+
+def _unknown_key_reason(key: str, allowed: Sequence[str], what: str) -> str:
+    close = difflib.get_close_matches(key, allowed, n=1)
+    if close:
+        return f"unknown {what} (did you mean {close[0]!r}?)"
+    return f"unknown {what} (allowed: {', '.join(allowed)})"
+
+
+def _parse_table(cls: type, raw: Any, path: str, problems: _Problems) -> Any | None:
+    """Build one section from its table, or record its problems and return None."""
+    if not isinstance(raw, Mapping):
+        problems.add(path, f"must be a table, not {_kind(raw)}")
+        return None
+    checks: dict[str, Check] = {f.name: f.metadata["check"] for f in dataclasses.fields(cls)}
+    before = len(problems.items)
+    values: dict[str, Any] = {}
+    for key, value in raw.items():
+        if key not in checks:
+            problems.add(f"{path}.{key}", _unknown_key_reason(str(key), list(checks), "key"))
+            continue
+        try:
+            values[key] = checks[key](value)
+        except _Invalid as exc:
+            problems.add(f"{path}.{key}", str(exc))
+    if len(problems.items) > before:
+        return None
+    section = cls(**values)
+    if isinstance(section, ServerSettings) and bool(section.basic_auth_user) != bool(
+        section.basic_auth_password
+    ):
+        problems.add(
+            f"{path}.basic_auth_password", "basic_auth_user and basic_auth_password must be set together"
+        )
+        return None
+    return section
+
+
+def _parse_devices(raw: Any, problems: _Problems) -> tuple[DeviceSettings, ...] | None:
+    if not isinstance(raw, (list, tuple)):
+        problems.add("devices", f"must be an array of tables ([[devices]]), not {_kind(raw)}")
+        return None
+    if not raw:
+        problems.add("devices", "at least one device is needed")
+        return None
+    parsed = [_parse_table(DeviceSettings, item, f"devices[{i}]", problems) for i, item in enumerate(raw)]
+    devices = [d for d in parsed if d is not None]
+    if len(devices) != len(parsed):
+        return None
+    seen: dict[str, int] = {}
+    for i, device in enumerate(devices):
+        if device.unique_id and device.unique_id in seen:
+            problems.add(f"devices[{i}].unique_id", f"same as devices[{seen[device.unique_id]}].unique_id")
+        seen.setdefault(device.unique_id, i)
+    return tuple(devices)
+
+
+def settings_from_dict(data: Mapping[str, Any], source: str | os.PathLike[str] = "<settings>") -> Settings:
+    """Validate a TOML-shaped dict into Settings; missing keys take their defaults.
+
+    ``source`` names where the dict came from in error messages (normally the file path).
+    Raises ConfigError listing every problem found.
+    """
+    where = os.fspath(source)
+    problems = _Problems()
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{where}: the top level must be a table, not {_kind(data)}")
+    for key in data:
+        if key not in _TOP_LEVEL:
+            problems.add(str(key), _unknown_key_reason(str(key), _TOP_LEVEL, "section"))
+    kwargs: dict[str, Any] = {}
+    for name, cls in _SECTIONS.items():
+        if name in data:
+            kwargs[name] = _parse_table(cls, data[name], name, problems)
+    if "devices" in data:
+        kwargs["devices"] = _parse_devices(data["devices"], problems)
+    problems.raise_if_any(where)
+    return Settings(**kwargs)
+
+
+def _plain(value: Any) -> Any:
+    """Turn tuples into lists and dataclasses into dicts, the shapes tomli_w writes."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def settings_to_dict(settings: Settings) -> dict[str, Any]:
+    """The TOML-shaped dict of ``settings``, every key present, in file order."""
+    return {name: _plain(getattr(settings, name)) for name in _TOP_LEVEL}
+
+
+def validate_settings(settings: Settings, source: str | os.PathLike[str] = "<settings>") -> None:
+    """Apply the file rules to settings built in code (e.g. with dataclasses.replace); raise ConfigError."""
+    settings_from_dict(settings_to_dict(settings), source)
+
+
+def assign_unique_ids(settings: Settings) -> Settings:
+    """Give every device without a UniqueID a fresh uuid4; returns ``settings`` itself if none lacked one."""
+    if all(d.unique_id for d in settings.devices):
+        return settings
+    devices = tuple(
+        d if d.unique_id else dataclasses.replace(d, unique_id=str(uuid.uuid4())) for d in settings.devices
+    )
+    return dataclasses.replace(settings, devices=devices)
+
+
+# --- horizon ------------------------------------------------------------------------------------
+
+
+def horizon_altitude_at(limits: LimitSettings, azimuth_deg: float) -> float:
+    """Lowest altitude allowed at ``azimuth_deg``: the higher of min_altitude and the horizon profile.
+
+    The profile is linear between points and wraps from the last point round through north to the
+    first, so a few points describe a whole horizon; with one point it is a constant.
+    """
+    floor = limits.min_altitude_deg
+    points = limits.horizon
+    if not points:
+        return floor
+    az = math.fmod(azimuth_deg, 360.0)
+    if az < 0.0:
+        az += 360.0
+    azimuths = [p[0] for p in points]
+    i = bisect.bisect_right(azimuths, az)
+    if i == 0 or i == len(points):
+        # Between the last point and the first one, across north.
+        (a0, h0), (a1, h1) = points[-1], points[0]
+        a1 += 360.0
+        if az < a0:
+            az += 360.0
+    else:
+        (a0, h0), (a1, h1) = points[i - 1], points[i]
+    span = a1 - a0
+    profile = h0 if span <= 0.0 else h0 + (h1 - h0) * (az - a0) / span
+    return max(floor, profile)
+
+
+# --- files --------------------------------------------------------------------------------------
+
+
+def default_config_path() -> Path:
+    """``config.toml`` in the per-user config directory (no vendor folder level on Windows)."""
+    return Path(platformdirs.user_config_dir(APP_NAME, appauthor=False)) / CONFIG_FILE_NAME
+
+
+_TOML_POSITION = re.compile(r"^(?P<reason>.*) \(at line (?P<line>\d+), column (?P<column>\d+)\)$", re.DOTALL)
+_TOML_AT_END = re.compile(r"^(?P<reason>.*) \(at end of document\)$", re.DOTALL)
+
+
+def _parse_toml(text: str, path: Path) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc)
+        if match := _TOML_POSITION.match(message):
+            line, column, reason = match["line"], match["column"], match["reason"]
+        elif match := _TOML_AT_END.match(message):
+            lines = text.split("\n")
+            line, column, reason = (
+                str(len(lines)),
+                str(len(lines[-1]) + 1),
+                match["reason"] + " at end of file",
+            )
+        else:
+            raise ConfigError(f"{path}: invalid TOML: {message}") from None
+        raise ConfigError(f"{path}: line {line}, column {column}: invalid TOML: {reason}") from None
+
+
+def _read_settings_file(path: Path) -> dict[str, Any] | None:
+    """The parsed file, or None if it does not exist."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from exc
+    try:
+        text = raw.decode("utf-8-sig")  # tolerate the BOM some Windows editors add
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (bad byte at offset {exc.start})") from None
+    return _parse_toml(text, path)
+
+
+def load_settings(path: Path | None = None) -> Settings:
+    """Read settings from ``path`` (default: :func:`default_config_path`).
+
+    A missing file yields the defaults. Devices without a UniqueID get one, and the file is then
+    (re)written so the id survives restarts: clients key their profiles on it, so it must be
+    generated exactly once. Raises ConfigError for anything wrong with the file.
+    """
+    path = Path(path) if path is not None else default_config_path()
+    data = _read_settings_file(path)
+    settings = settings_from_dict(data or {}, path)
+    complete = assign_unique_ids(settings)
+    if data is None or complete is not settings:
+        save_settings(complete, path)
+    return complete
+
+
+def save_settings(settings: Settings, path: Path | None = None) -> None:
+    """Validate and write ``settings`` atomically, readable only by the owner (it may hold a password).
+
+    Atomic (temporary file in the same directory, then os.replace) so a crash or a full disk
+    never leaves a half-written file that would stop the next start.
+    """
+    path = Path(path) if path is not None else default_config_path()
+    validate_settings(settings, path)
+    text = _FILE_HEADER + tomli_w.dumps(settings_to_dict(settings))
+    tmp_name: str | None = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp_name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")  # mode 0600
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp_name, path)
+        tmp_name = None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot write: {exc.strerror or exc}") from exc
+    finally:
+        if tmp_name is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp_name)

@@ -1,0 +1,458 @@
+"""One byte pipe to the mount, done right.
+
+The link owns the port (any pyserial URL: ``/dev/ttyACM0``, ``COM3``, ``socket://192.168.4.1:4030``,
+``rfc2217://…``, ``loop://``). Exactly one request/reply exchange is on the wire at a time;
+client commands jump ahead of background polls, so an abort waits for at most the exchange
+already in flight. Replies are read by the kind the protocol table gives, never waiting for a
+``#`` that will not come.
+
+Keeping replies matched to requests is the link's first duty. After a timeout the mount may
+still deliver the late reply (a WiFi stall), or never deliver it (a dropped reply); after junk
+bytes the stream position is unknown. The link therefore marks itself *suspect* and, before the
+next command, drains the input and proves it is back in step with a probe whose exact reply it
+knows, repeated until nothing else arrives behind that reply. Only then does a new command go
+out, so a stale reply can never be read as the answer to a later request.
+
+When the port vanishes (USB unplugged, WiFi dropped, mount rebooted) the link reconnects in the
+background with backoff and bumps :attr:`Link.generation`, which tells the mount layer that the
+mount may have lost its time and site.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import re
+import socket
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum, IntEnum
+from typing import Any
+
+import serial
+
+from . import protocol
+from ._exceptions import LinkError, LinkTimeout, ProtocolError
+
+log = logging.getLogger(__name__)
+
+
+class Priority(IntEnum):
+    """Who is waiting for the wire: commands from clients go before background polls."""
+
+    COMMAND = 0
+    POLL = 1
+
+
+class LinkState(Enum):
+    CONNECTING = "connecting"
+    CONNECTED = "connected"
+    RECONNECTING = "reconnecting"
+    CLOSED = "closed"
+
+
+@dataclass(frozen=True)
+class LinkStatus:
+    """What the setup page and DeviceState need to know about the link."""
+
+    state: LinkState
+    url: str
+    since: float  # wall-clock time of the last state change
+    last_error: str = ""
+    reconnects: int = 0
+    generation: int = 0
+
+    @property
+    def connected(self) -> bool:
+        return self.state is LinkState.CONNECTED
+
+
+@dataclass(frozen=True)
+class TraceEntry:
+    """One exchange (or link event) for diagnostics."""
+
+    time: float  # wall clock
+    request: str
+    reply: str | None
+    duration_ms: float
+    note: str = ""
+
+
+@dataclass
+class LinkCounters:
+    bytes_out: int = 0
+    bytes_in: int = 0
+    exchanges: int = 0
+    timeouts: int = 0
+    resyncs: int = 0
+    drained_bytes: int = 0
+
+
+class _Arbiter:
+    """A FIFO lock with two priority classes: all waiting commands are served before any poll."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._busy = False
+        self._queues: tuple[collections.deque[object], collections.deque[object]] = (
+            collections.deque(),
+            collections.deque(),
+        )
+
+    def _head(self) -> object | None:
+        for queue in self._queues:
+            if queue:
+                return queue[0]
+        return None
+
+    def acquire(self, priority: Priority, timeout: float) -> None:
+        ticket = object()
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            queue = self._queues[priority]
+            queue.append(ticket)
+            while self._busy or self._head() is not ticket:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    queue.remove(ticket)
+                    self._cond.notify_all()
+                    raise LinkTimeout(f"the mount line stayed busy for {timeout:.1f} s")
+                self._cond.wait(remaining)
+            queue.popleft()
+            self._busy = True
+
+    def release(self) -> None:
+        with self._cond:
+            self._busy = False
+            self._cond.notify_all()
+
+
+Opener = Callable[..., Any]
+
+
+class Link:
+    """The single owner of the mount port. Thread-safe; every method may be called from any thread."""
+
+    #: Silence that proves the input is empty: 48 bytes' time at 9600 baud.
+    QUIET_S = 0.05
+    #: How long a resynchronisation may keep draining a babbling line before giving up for now.
+    DRAIN_LIMIT_S = 1.0
+    READ_SLICE_S = 0.05
+    PROBE = protocol.query("GVP")
+
+    def __init__(
+        self,
+        url: str,
+        *,
+        baud: int = 9600,
+        timeout: float = 2.5,
+        trace_size: int = 2000,
+        opener: Opener = serial.serial_for_url,
+        reconnect_delays: tuple[float, ...] = (0.2, 0.5, 1.0, 1.0, 2.0),
+    ) -> None:
+        self.url = url
+        self.baud = baud
+        self.timeout = timeout
+        self._opener = opener
+        self._reconnect_delays = reconnect_delays
+        self._port: Any = None
+        self._arbiter = _Arbiter()
+        self._state_lock = threading.Lock()
+        self._status = LinkStatus(LinkState.CLOSED, url, time.time())
+        self._suspect = False
+        self._probe_reply: str | None = None  # learnt on the first successful probe
+        self._trace: collections.deque[TraceEntry] = collections.deque(maxlen=trace_size)
+        self.counters = LinkCounters()
+        self._reconnect_thread: threading.Thread | None = None
+        self._closing = threading.Event()
+        self._state_changed = threading.Condition(self._state_lock)
+
+    # -- lifecycle ---------------------------------------------------------------------------
+
+    @property
+    def status(self) -> LinkStatus:
+        return self._status
+
+    @property
+    def generation(self) -> int:
+        """Bumped on every successful (re)connection: the mount behind it may have restarted."""
+        return self._status.generation
+
+    def open(self) -> None:
+        """Open the port now; raise LinkError if the mount cannot be reached."""
+        self._closing.clear()
+        self._set_state(LinkState.CONNECTING)
+        try:
+            self._open_port()
+        except LinkError as exc:
+            self._set_state(LinkState.CLOSED, str(exc))
+            raise
+        self._set_state(LinkState.CONNECTED, bump=True)
+
+    def close(self) -> None:
+        self._closing.set()
+        self._arbiter.acquire(Priority.COMMAND, self.timeout * 4)
+        try:
+            self._close_port()
+        finally:
+            self._arbiter.release()
+        self._set_state(LinkState.CLOSED)
+        thread = self._reconnect_thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5)
+
+    def wait_connected(self, timeout: float) -> bool:
+        """Block until the link is connected (True) or the timeout passes (False)."""
+        deadline = time.monotonic() + timeout
+        with self._state_changed:
+            while self._status.state is not LinkState.CONNECTED:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or self._status.state is LinkState.CLOSED:
+                    return self._status.state is LinkState.CONNECTED
+                self._state_changed.wait(remaining)
+        return True
+
+    def expect_probe_reply(self, model: str) -> None:
+        """Tell the link the mount's model name, the exact reply its resync probe must see."""
+        self._probe_reply = f"{model}#"
+
+    def trace(self) -> list[TraceEntry]:
+        return list(self._trace)
+
+    # -- exchanges ---------------------------------------------------------------------------
+
+    def execute(self, req: protocol.Request, priority: Priority = Priority.COMMAND) -> Any:
+        """Send ``req`` and return its parsed reply (None for commands without a reply)."""
+        return req.parse(self.exchange(req, priority))
+
+    def exchange(self, req: protocol.Request, priority: Priority = Priority.COMMAND) -> str:
+        """Send ``req`` and return its raw reply text ('' for commands without a reply)."""
+        if self._status.state is not LinkState.CONNECTED:
+            raise LinkError(f"mount link is {self._status.state.value}: {self._status.last_error or 'not open'}")
+        self._arbiter.acquire(priority, self.timeout * 4)
+        try:
+            if self._port is None:
+                raise LinkError(f"mount link is {self._status.state.value}")
+            if self._suspect:
+                self._resynchronise()
+            elif self._port.in_waiting:
+                # Bytes nobody asked for: stale or junk. Get back in step before sending.
+                self._suspect = True
+                self._resynchronise()
+            return self._exchange_locked(req)
+        except (serial.SerialException, OSError) as exc:
+            self._lost(exc)
+            raise LinkError(f"mount link lost: {exc}") from exc
+        finally:
+            self._arbiter.release()
+
+    def _exchange_locked(self, req: protocol.Request) -> str:
+        started = time.monotonic()
+        wire = req.wire
+        self._port.write(wire)
+        self.counters.bytes_out += len(wire)
+        self.counters.exchanges += 1
+        try:
+            reply = self._read_reply(req.kind, started + self.timeout)
+        except LinkTimeout as exc:
+            self.counters.timeouts += 1
+            self._suspect = True
+            self._record(req.text, None, started, f"timeout: {exc}")
+            raise LinkTimeout(f"no complete reply to {req.text} within {self.timeout:.1f} s") from exc
+        self._record(req.text, reply, started)
+        if not _plausible(req, reply):
+            self._suspect = True
+            raise ProtocolError(f"implausible reply {reply!r} to {req.text}")
+        return reply
+
+    def _read_reply(self, kind: protocol.ReplyKind, deadline: float) -> str:
+        if kind is protocol.ReplyKind.NONE:
+            return ""
+        port = self._port
+        data = bytearray()
+        while not protocol.reply_complete(kind, bytes(data)):
+            if time.monotonic() >= deadline:
+                raise LinkTimeout(f"partial reply {bytes(data)!r}")
+            # One byte at a time for bare-character replies so nothing behind them is consumed.
+            want = 1 if kind is not protocol.ReplyKind.TEXT and not data else max(1, port.in_waiting)
+            chunk = port.read(want)
+            if chunk:
+                data += chunk
+                self.counters.bytes_in += len(chunk)
+                if len(data) > 128:
+                    self._suspect = True
+                    raise ProtocolError(f"runaway reply {bytes(data[:32])!r}…")
+        text = data.decode("latin-1")
+        if kind is protocol.ReplyKind.TEXT and not text.endswith("#"):
+            raise ProtocolError(f"unterminated reply {text!r}")
+        if text.count("#") > 1 or (kind is protocol.ReplyKind.TEXT and text.index("#") != len(text) - 1):
+            # More than one reply's worth: something stale was already queued.
+            self._suspect = True
+            raise ProtocolError(f"reply {text!r} holds more than one answer")
+        return text
+
+    # -- resynchronisation -------------------------------------------------------------------
+
+    def _drain(self, quiet_s: float) -> int:
+        """Read and discard until the line has been silent for ``quiet_s``; bounded in time."""
+        port = self._port
+        drained = 0
+        give_up = time.monotonic() + self.DRAIN_LIMIT_S
+        quiet_until = time.monotonic() + quiet_s
+        while time.monotonic() < quiet_until:
+            chunk = port.read(max(1, port.in_waiting))
+            if chunk:
+                drained += len(chunk)
+                quiet_until = time.monotonic() + quiet_s
+                if time.monotonic() > give_up:
+                    break
+        self.counters.drained_bytes += drained
+        return drained
+
+    def _resynchronise(self) -> None:
+        """Prove the stream is in step again, or raise LinkTimeout without sending the command.
+
+        Drain; send the probe; read up to its '#'. A reply that is not exactly the probe's (a
+        stale answer to an earlier request) or anything arriving after it means the line still
+        held old replies, so go round again. Stale replies arrive in order, ahead of the probe's.
+        """
+        self.counters.resyncs += 1
+        started = time.monotonic()
+        for _attempt in range(6):
+            drained = self._drain(self.QUIET_S)
+            self._port.write(self.PROBE.wire)
+            self.counters.bytes_out += len(self.PROBE.wire)
+            try:
+                reply = self._read_probe(time.monotonic() + self.timeout)
+            except LinkTimeout:
+                self._record(self.PROBE.text, None, started, f"resync: probe timed out (drained {drained} B)")
+                raise LinkTimeout("the mount did not answer the resynchronisation probe") from None
+            if self._drain(self.QUIET_S) == 0 and reply is not None:
+                self._suspect = False
+                self._record(self.PROBE.text, reply, started, f"resync: back in step (drained {drained} B)")
+                return
+        self._record(self.PROBE.text, None, started, "resync: line still babbling")
+        raise LinkTimeout("could not resynchronise with the mount")
+
+    def _read_probe(self, deadline: float) -> str | None:
+        """Read replies up to the probe's own; None if what ended with '#' was not the probe's."""
+        data = bytearray()
+        port = self._port
+        while time.monotonic() < deadline:
+            chunk = port.read(1)
+            if not chunk:
+                continue
+            self.counters.bytes_in += 1
+            data += chunk
+            if chunk == b"#":
+                text = data.decode("latin-1")
+                if self._probe_reply is None:
+                    if _MODEL_RE.fullmatch(text):
+                        self._probe_reply = text  # the first probe teaches us the model name
+                        return text
+                elif text == self._probe_reply:
+                    return text
+                data.clear()  # a stale reply; keep reading for ours
+        raise LinkTimeout("probe reply did not arrive")
+
+    # -- connection management ---------------------------------------------------------------
+
+    def _open_port(self) -> None:
+        try:
+            port = self._opener(self.url, baudrate=self.baud, timeout=self.READ_SLICE_S, write_timeout=self.timeout)
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise LinkError(f"cannot open {self.url}: {exc}") from exc
+        sock = getattr(port, "_socket", None)
+        if isinstance(sock, socket.socket):
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._port = port
+        self._suspect = True  # whatever was buffered before we came is not ours
+
+    def _close_port(self) -> None:
+        port, self._port = self._port, None
+        if port is not None:
+            try:
+                port.close()
+            except (serial.SerialException, OSError):
+                pass
+
+    def _lost(self, exc: BaseException) -> None:
+        """Called with the arbiter held when the port failed: close it and start reconnecting."""
+        self._close_port()
+        if self._closing.is_set():
+            return
+        log.warning("mount link %s lost: %s; reconnecting", self.url, exc)
+        self._record("", None, time.monotonic(), f"link lost: {exc}")
+        self._set_state(LinkState.RECONNECTING, str(exc))
+        thread = threading.Thread(target=self._reconnect_loop, name="link-reconnect", daemon=True)
+        self._reconnect_thread = thread
+        thread.start()
+
+    def _reconnect_loop(self) -> None:
+        attempt = 0
+        while not self._closing.is_set():
+            delay = self._reconnect_delays[min(attempt, len(self._reconnect_delays) - 1)]
+            if self._closing.wait(delay):
+                return
+            attempt += 1
+            try:
+                self._arbiter.acquire(Priority.COMMAND, self.timeout * 4)
+            except LinkTimeout:
+                continue
+            try:
+                if self._closing.is_set():
+                    return
+                self._open_port()
+            except LinkError as exc:
+                self._set_state(LinkState.RECONNECTING, str(exc))
+                continue
+            finally:
+                self._arbiter.release()
+            log.info("mount link %s reconnected after %d attempt(s)", self.url, attempt)
+            self._record("", None, time.monotonic(), "link reconnected")
+            self._set_state(LinkState.CONNECTED, bump=True, reconnected=True)
+            return
+
+    def report_failure(self, exc: BaseException) -> None:
+        """Let a caller declare the link dead (e.g. the mount stopped answering entirely)."""
+        self._arbiter.acquire(Priority.COMMAND, self.timeout * 4)
+        try:
+            if self._port is not None:
+                self._lost(exc)
+        finally:
+            self._arbiter.release()
+
+    def _set_state(self, state: LinkState, error: str = "", *, bump: bool = False, reconnected: bool = False) -> None:
+        with self._state_changed:
+            old = self._status
+            self._status = LinkStatus(
+                state,
+                self.url,
+                time.time() if state is not old.state else old.since,
+                error if error or state is not LinkState.CONNECTED else "",
+                old.reconnects + (1 if reconnected else 0),
+                old.generation + (1 if bump else 0),
+            )
+            self._state_changed.notify_all()
+
+    def _record(self, request: str, reply: str | None, started: float, note: str = "") -> None:
+        self._trace.append(
+            TraceEntry(time.time(), request, reply, (time.monotonic() - started) * 1000.0, note)
+        )
+
+
+_MODEL_RE = re.compile(r"[A-Z]{2}\d{1,2}[A-Z]{0,2}#")
+
+
+def _plausible(req: protocol.Request, reply: str) -> bool:
+    """A cheap shape check so junk in place of a reply is caught at the link, not parsed as data."""
+    kind = req.kind
+    if kind is protocol.ReplyKind.NONE:
+        return reply == ""
+    if kind is protocol.ReplyKind.CHAR:
+        return reply in ("0", "1") or reply.startswith("e") or (req.command.code == "Sp01" and reply.isdigit())
+    if kind is protocol.ReplyKind.GOTO:
+        return reply == "0" or reply.startswith("e")
+    return all(" " <= ch <= "~" or ch in "°ß\xdf" for ch in reply)

@@ -1,0 +1,593 @@
+"""Typed mount operations and the state snapshot kept fresh by one poller.
+
+Reads never touch the port: the server answers every property from :attr:`Mount.state`, an
+immutable :class:`MountState` that one poller thread replaces atomically. The poller spends the
+fewest bytes it can (``:GMEQ#`` for both coordinates, ``:GU#``, ``:GAT#``, ``:Gm#``), polls fast
+while anything moves and slowly at rest, so serial traffic is independent of how many HTTP
+clients are reading.
+
+The mount reports RA to one second of time (15″ at the equator) and Dec to one arcsecond. Clients
+check much finer than that (ConformU's 1″ pulse-guide test, NINA's 1″ sync check), so a
+:class:`PositionEstimator` carries a full-precision position forward from what the server itself
+commanded (sync and GOTO coordinates, pulses, tracking rate) for as long as the mount's coarse
+readings agree with it, and falls back to the readings the moment they do not.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from datetime import datetime, timedelta, timezone
+
+from . import protocol
+from ._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
+from .link import Link, LinkStatus, Priority
+from .protocol import Direction, MeridianSettings, MountStatus, TrackingState, TrackRate
+
+log = logging.getLogger(__name__)
+
+SIDEREAL_DAY_S = 86164.0905
+#: Sidereal rate in degrees per SI second (15.041″/s).
+SIDEREAL_DEG_S = 360.0 / SIDEREAL_DAY_S
+#: How fast RA drifts (hours per second) when the mount does not track: LST runs at this rate.
+SIDEREAL_HOURS_PER_S = 24.0 / SIDEREAL_DAY_S
+#: Tracking rates as multiples of sidereal; the King rate is not offered by ZWO mounts.
+TRACK_RATE_FACTORS = {
+    TrackRate.SIDEREAL: 1.0,
+    TrackRate.SOLAR: SIDEREAL_DAY_S / 86400.0,
+    TrackRate.LUNAR: 1.0 - 1.0 / 27.321661 * (SIDEREAL_DAY_S / 86400.0),
+}
+PULSE_CHUNK_MS = 3000
+
+
+def utc_now() -> datetime:
+    return datetime.now(timezone.utc)
+
+
+@dataclass(frozen=True)
+class MountInfo:
+    """Identity read at connect; the firmware version gates features (field notes §5.6)."""
+
+    model: str
+    firmware: str
+
+    @property
+    def version(self) -> tuple[int, ...]:
+        parts = []
+        for piece in self.firmware.split("."):
+            digits = "".join(ch for ch in piece if ch.isdigit())
+            parts.append(int(digits) if digits else 0)
+        return tuple(parts)
+
+    @property
+    def has_meridian_settings(self) -> bool:
+        return self.version >= (1, 2, 4)
+
+    @property
+    def has_variable_rate(self) -> bool:
+        return True  # :Rv is in every protocol revision ZWO published since V1.1 was superseded
+
+
+@dataclass(frozen=True)
+class MountSettings:
+    """Settings stored in the mount itself, read on demand (not polled)."""
+
+    meridian: MeridianSettings | None
+    limits_enabled: bool | None
+    upper_limit: int | None
+    lower_limit: int | None
+    heavy_duty: bool | None
+    buzzer: int | None
+    guide_rate: float | None
+    daylight_saving: bool | None = None
+
+
+@dataclass(frozen=True)
+class MountState:
+    """One coherent picture of the mount. Each group of values carries the time it was read."""
+
+    time: float  # monotonic time this snapshot was published
+    ra: float | None = None  # hours, best estimate (sub-arcsecond)
+    dec: float | None = None  # degrees
+    raw_ra: float | None = None  # as the mount printed them
+    raw_dec: float | None = None
+    position_time: float | None = None  # monotonic time of the reading
+    status: MountStatus | None = None
+    status_time: float | None = None
+    tracking: TrackingState | None = None
+    pier: str | None = None  # 'E', 'W' or 'N' (home)
+    tracking_rate: TrackRate = TrackRate.SIDEREAL
+    guide_rate: float = 0.5
+    moving_axes: frozenset[int] = frozenset()
+    guide_until: tuple[float, float] = (0.0, 0.0)  # monotonic end of the RA and Dec pulses
+    link: LinkStatus | None = None
+    info: MountInfo | None = None
+    initialised: bool = False  # time and site pushed since the link last (re)connected
+    poll_error: str = ""
+
+    def age(self, now: float | None = None) -> float | None:
+        """Seconds since the position was read (None: never)."""
+        if self.position_time is None:
+            return None
+        return (time.monotonic() if now is None else now) - self.position_time
+
+    def is_guiding(self, now: float | None = None) -> bool:
+        stamp = time.monotonic() if now is None else now
+        return stamp < max(self.guide_until)
+
+    @property
+    def goto_running(self) -> bool:
+        return bool(self.status and self.status.slewing)
+
+
+@dataclass
+class PositionEstimator:
+    """Full-precision RA/Dec carried forward between coarse mount readings.
+
+    The estimate is an anchor plus linear motion: RA drifts at ``ra_rate`` (hours/s: zero while
+    tracking at sidereal, the sidereal rate when not tracking) and each pulse adds its known
+    displacement. A reading that disagrees with the estimate by more than the mount's own
+    resolution (plus a margin) re-anchors to the reading, so the estimate can refine the mount's
+    numbers but never contradict them.
+    """
+
+    ra_tolerance_h: float = 1.2 / 3600.0  # the mount prints whole seconds of RA
+    dec_tolerance_deg: float = 1.2 / 3600.0  # and whole arcseconds of Dec
+    anchor_ra: float | None = None
+    anchor_dec: float | None = None
+    anchor_time: float = 0.0
+    ra_rate: float = 0.0
+    pending: list[tuple[float, float, float, float]] = field(default_factory=list)  # start, end, dra/s, ddec/s
+
+    def predict(self, now: float) -> tuple[float, float] | None:
+        if self.anchor_ra is None or self.anchor_dec is None:
+            return None
+        ra = self.anchor_ra + self.ra_rate * (now - self.anchor_time)
+        dec = self.anchor_dec
+        for start, end, dra, ddec in self.pending:
+            span = max(0.0, min(now, end) - max(start, self.anchor_time))
+            ra += dra * span
+            dec += ddec * span
+        return ra % 24.0, dec
+
+    def _rebase(self, now: float) -> None:
+        predicted = self.predict(now)
+        if predicted is not None:
+            self.anchor_ra, self.anchor_dec = predicted
+        self.anchor_time = now
+        self.pending = [p for p in self.pending if p[1] > now]
+
+    def set_exact(self, ra: float, dec: float, now: float) -> None:
+        self.anchor_ra, self.anchor_dec, self.anchor_time = ra % 24.0, dec, now
+        self.pending = []
+
+    def set_ra_rate(self, ra_rate: float, now: float) -> None:
+        self._rebase(now)
+        self.ra_rate = ra_rate
+
+    def add_motion(self, start: float, end: float, dra_per_s: float, ddec_per_s: float) -> None:
+        self.pending.append((start, end, dra_per_s, ddec_per_s))
+
+    def invalidate(self) -> None:
+        self.anchor_ra = self.anchor_dec = None
+        self.pending = []
+
+    def observe(self, raw_ra: float, raw_dec: float, now: float) -> tuple[float, float]:
+        predicted = self.predict(now)
+        if predicted is not None:
+            dra = abs((predicted[0] - raw_ra + 12.0) % 24.0 - 12.0)
+            if dra <= self.ra_tolerance_h and abs(predicted[1] - raw_dec) <= self.dec_tolerance_deg:
+                return predicted
+        self.set_exact(raw_ra, raw_dec, now)
+        return raw_ra, raw_dec
+
+
+SiteProvider = Callable[[], tuple[float, float]]
+
+
+class Mount:
+    """Typed operations on one ZWO mount, plus its state snapshot.
+
+    ``site`` supplies the (latitude, east longitude) to push on connect and after a mount
+    reboot; ``clock`` is the host's UTC clock (an emulator running fast supplies its own).
+    """
+
+    def __init__(
+        self,
+        link: Link,
+        site: SiteProvider,
+        *,
+        clock: Callable[[], datetime] = utc_now,
+        poll_fast_s: float = 0.25,
+        poll_slow_s: float = 0.75,
+        utc_offset: Callable[[], timedelta] | None = None,
+    ) -> None:
+        self.link = link
+        self._site = site
+        self.clock = clock
+        self._utc_offset = utc_offset or _host_utc_offset
+        self.poll_fast_s = poll_fast_s
+        self.poll_slow_s = poll_slow_s
+        self._state = MountState(time=time.monotonic(), link=link.status)
+        self._state_cond = threading.Condition()
+        self._estimator = PositionEstimator()
+        self._estimator_lock = threading.Lock()
+        self._init_lock = threading.Lock()
+        self._init_generation = -1
+        self._poll_wake = threading.Event()
+        self._stop = threading.Event()
+        self._poller: threading.Thread | None = None
+        self._move_directions: dict[int, Direction] = {}
+        self._goto_target: tuple[float, float] | None = None
+        self._poll_cycles = 0
+
+    # -- state -------------------------------------------------------------------------------
+
+    @property
+    def state(self) -> MountState:
+        return self._state
+
+    def _publish(self, **changes: object) -> MountState:
+        with self._state_cond:
+            self._state = replace(self._state, time=time.monotonic(), link=self.link.status, **changes)
+            self._state_cond.notify_all()
+            return self._state
+
+    def wait_for(self, predicate: Callable[[MountState], bool], timeout: float) -> MountState | None:
+        """Block until a published state satisfies ``predicate``; None on timeout."""
+        deadline = time.monotonic() + timeout
+        with self._state_cond:
+            while not predicate(self._state):
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return None
+                self._state_cond.wait(remaining)
+            return self._state
+
+    def refresh(self) -> None:
+        """Ask the poller for a new reading as soon as the line is free."""
+        self._poll_wake.set()
+
+    # -- lifecycle ---------------------------------------------------------------------------
+
+    def connect(self) -> None:
+        """Open the link, identify the mount, push time and site, and start the poller."""
+        self._stop.clear()
+        self.link.open()
+        try:
+            self.ensure_initialised()
+            self.poll_once()
+        except AlpacaZwoError:
+            self.link.close()
+            raise
+        self._poller = threading.Thread(target=self._poll_loop, name="mount-poller", daemon=True)
+        self._poller.start()
+
+    def disconnect(self) -> None:
+        self._stop.set()
+        self._poll_wake.set()
+        if self._poller is not None and self._poller is not threading.current_thread():
+            self._poller.join(timeout=5)
+        self._poller = None
+        self.link.close()
+        self._publish(initialised=False)
+
+    @property
+    def running(self) -> bool:
+        return self._poller is not None and not self._stop.is_set()
+
+    # -- initialisation (connect, and again after a mount reboot) ----------------------------
+
+    def ensure_initialised(self) -> None:
+        """Identify the mount and push time and site unless done since the link last connected.
+
+        A mount that rebooted has lost both (its date reads 01/01/00 and a GOTO would answer
+        ``e7#``), so every new link generation is initialised before any GOTO or sync.
+        """
+        if self._init_generation == self.link.generation and self._state.initialised:
+            return
+        with self._init_lock:
+            generation = self.link.generation
+            if self._init_generation == generation and self._state.initialised:
+                return
+            info = MountInfo(self._exec(protocol.query("GVP")), self._exec(protocol.query("GV")))
+            self.link.expect_probe_reply(info.model)
+            status = self._exec(protocol.query("GU"))
+            mount_date = self._exec(protocol.query("GC"))
+            if mount_date.year <= 2000:
+                log.info("mount %s reports date %s: time and site not set since power-up", info.model, mount_date)
+            self.push_time()
+            latitude, longitude = self._site()
+            self.push_site(latitude, longitude)
+            guide_rate = self._exec(protocol.query("Ggr"))
+            self._init_generation = generation
+            self._publish(info=info, status=status, status_time=time.monotonic(), guide_rate=guide_rate,
+                          initialised=True)
+            log.info("mount %s firmware %s initialised (link generation %d)", info.model, info.firmware, generation)
+
+    def push_time(self) -> None:
+        """Set the mount's clock to the host's, with the zone sign the mount expects (negated).
+
+        The mount keeps whole seconds, so the command is sent on a second boundary (waiting at
+        most a second) to avoid a systematic half-second error in its sidereal time.
+        """
+        now = self.clock()
+        wait = 1.0 - now.microsecond / 1e6
+        if 0.0 < wait < 1.0 and self.clock is utc_now:
+            time.sleep(wait)
+            now = self.clock()
+        offset = self._utc_offset()
+        local = now + offset
+        hours = offset.total_seconds() / 3600.0
+        self._exec(protocol.set_utc_offset(hours))
+        self._exec(protocol.set_time(local.time()))
+        self._exec(protocol.set_date(local.date()))
+
+    def push_site(self, latitude: float, east_longitude: float) -> None:
+        self._exec(protocol.set_latitude(latitude))
+        self._exec(protocol.set_longitude(east_longitude))
+
+    # -- motion ------------------------------------------------------------------------------
+
+    def goto(self, ra: float, dec: float) -> None:
+        """Start a GOTO. MountReplyError carries the mount's refusal (e3, e5, e6, e7 …)."""
+        self.ensure_initialised()
+        self._exec(protocol.set_target_ra(ra))
+        self._exec(protocol.set_target_dec(dec))
+        try:
+            self._exec(protocol.query("MS"))
+        except MountReplyError as exc:
+            if exc.code != 7:
+                raise
+            # The mount forgot time and site behind our back (a reboot the link did not see).
+            self._init_generation = -1
+            self._publish(initialised=False)
+            self.ensure_initialised()
+            self._exec(protocol.set_target_ra(ra))
+            self._exec(protocol.set_target_dec(dec))
+            self._exec(protocol.query("MS"))
+        with self._estimator_lock:
+            self._estimator.invalidate()
+            self._goto_target = (ra, dec)
+        self._publish(status=replace(self._state.status or MountStatus(), slewing=True), status_time=time.monotonic())
+        self.refresh()
+
+    def sync(self, ra: float, dec: float) -> None:
+        self.ensure_initialised()
+        self._exec(protocol.set_target_ra(ra))
+        self._exec(protocol.set_target_dec(dec))
+        self._exec(protocol.query("CM"))
+        now = time.monotonic()
+        with self._estimator_lock:
+            self._estimator.set_exact(ra, dec, now)
+            self._estimator.set_ra_rate(self._ra_drift(), now)
+        self._publish(ra=ra % 24.0, dec=dec, position_time=now)
+        self.refresh()
+
+    def stop(self) -> None:
+        """Stop every motion (GOTO, home, manual moves, pulses); tracking keeps its setting."""
+        self._exec(protocol.query("Q"))
+        self._move_directions.clear()
+        with self._estimator_lock:
+            self._estimator.invalidate()
+        self._publish(moving_axes=frozenset(), guide_until=(0.0, 0.0))
+        self.refresh()
+
+    def move_axis(self, axis: int, rate_deg_s: float) -> None:
+        """Move axis 0 (RA: + is east) or 1 (Dec: + is north) at a sky rate; 0 stops that axis."""
+        if axis not in (0, 1):
+            raise ValueError(f"axis {axis} cannot move")
+        moving = set(self._state.moving_axes)
+        if rate_deg_s == 0.0:
+            previous = self._move_directions.pop(axis, None)
+            directions = [previous] if previous else (
+                [Direction.EAST, Direction.WEST] if axis == 0 else [Direction.NORTH, Direction.SOUTH])
+            for direction in directions:
+                self._exec(protocol.stop_direction(direction))
+            moving.discard(axis)
+        else:
+            multiple = min(abs(rate_deg_s) / SIDEREAL_DEG_S, protocol.SLEW_SPEEDS[-1])
+            if axis == 0:
+                direction = Direction.EAST if rate_deg_s > 0 else Direction.WEST
+            else:
+                direction = Direction.NORTH if rate_deg_s > 0 else Direction.SOUTH
+            opposite = {Direction.EAST: Direction.WEST, Direction.WEST: Direction.EAST,
+                        Direction.NORTH: Direction.SOUTH, Direction.SOUTH: Direction.NORTH}[direction]
+            if self._move_directions.get(axis) is opposite:
+                self._exec(protocol.stop_direction(opposite))
+            self._exec(protocol.set_variable_speed(round(multiple, 2)))
+            self._exec(protocol.move(direction))
+            self._move_directions[axis] = direction
+            moving.add(axis)
+        with self._estimator_lock:
+            self._estimator.invalidate()
+        self._publish(moving_axes=frozenset(moving))
+        self.refresh()
+
+    def pulse_guide(self, direction: Direction, milliseconds: int) -> float:
+        """Send one pulse (≤ 3000 ms, the mount's documented range); return its monotonic end."""
+        if not 0 <= milliseconds <= PULSE_CHUNK_MS:
+            raise ValueError(f"pulse of {milliseconds} ms is outside 0..{PULSE_CHUNK_MS}")
+        state = self._state
+        start = time.monotonic()
+        self._exec(protocol.pulse_guide(direction, milliseconds))
+        end = start + milliseconds / 1000.0
+        speed_deg = state.guide_rate * SIDEREAL_DEG_S
+        dra = ddec = 0.0
+        if direction is Direction.EAST:
+            dra = speed_deg / 15.0
+        elif direction is Direction.WEST:
+            dra = -speed_deg / 15.0
+        elif direction is Direction.NORTH:
+            ddec = speed_deg
+        else:
+            ddec = -speed_deg
+        with self._estimator_lock:
+            self._estimator.add_motion(start, end, dra, ddec)
+        ra_end, dec_end = state.guide_until
+        if dra:
+            ra_end = end
+        else:
+            dec_end = end
+        self._publish(guide_until=(ra_end, dec_end))
+        return end
+
+    def set_tracking(self, on: bool) -> None:
+        self._exec(protocol.query("Te" if on else "Td"))
+        self._publish(tracking=TrackingState(on))
+        self._rate_changed()
+
+    def set_tracking_rate(self, rate: TrackRate) -> None:
+        self._exec(protocol.set_tracking_rate(rate))
+        self._publish(tracking_rate=rate)
+        self._rate_changed()
+
+    def set_guide_rate(self, fraction: float) -> float:
+        self._exec(protocol.set_guide_rate(fraction))
+        actual = self._exec(protocol.query("Ggr"))
+        self._publish(guide_rate=actual)
+        return actual
+
+    def home(self) -> None:
+        self._exec(protocol.query("hC"))
+        with self._estimator_lock:
+            self._estimator.invalidate()
+        self._publish(status=replace(self._state.status or MountStatus(), slewing=True), status_time=time.monotonic())
+        self.refresh()
+
+    # -- settings stored in the mount ---------------------------------------------------------
+
+    def read_settings(self) -> MountSettings:
+        info = self._state.info
+        meridian = self._try(protocol.query("GTa")) if info is None or info.has_meridian_settings else None
+        heavy = self._try(protocol.query("GRl"))
+        return MountSettings(
+            meridian=meridian,
+            limits_enabled=self._try(protocol.query("GLC")),
+            upper_limit=self._try(protocol.query("GLH")),
+            lower_limit=self._try(protocol.query("GLL")),
+            heavy_duty=None if heavy is None else heavy == 720,
+            buzzer=self._try(protocol.query("GBu")),
+            guide_rate=self._try(protocol.query("Ggr")),
+            daylight_saving=self._try(protocol.query("GH")),
+        )
+
+    def set_meridian(self, settings: MeridianSettings) -> None:
+        self._exec(protocol.set_meridian(settings))
+
+    def set_limits_enabled(self, enabled: bool) -> None:
+        self._exec(protocol.query("SLE" if enabled else "SLD"))
+
+    def set_upper_limit(self, degrees: int) -> None:
+        self._exec(protocol.set_upper_limit(degrees))
+
+    def set_lower_limit(self, degrees: int) -> None:
+        self._exec(protocol.set_lower_limit(degrees))
+
+    def set_heavy_duty(self, on: bool) -> None:
+        self._exec(protocol.set_heavy_duty(on))
+
+    def set_buzzer(self, level: int) -> None:
+        self._exec(protocol.set_buzzer(level))
+
+    def set_mode(self, equatorial: bool) -> None:
+        """Switch EQ/alt-az; the mount applies it only after a restart."""
+        self._exec(protocol.query("AP" if equatorial else "AA"))
+
+    def clear_alignment(self) -> None:
+        self._exec(protocol.query("NSC"))
+
+    def raw(self, text: str) -> str:
+        """Send a raw command (``:XX#`` with or without the framing) and return its raw reply."""
+        body = text.strip()
+        body = body[1:] if body.startswith(":") else body
+        body = body[:-1] if body.endswith("#") else body
+        match = protocol.match_command(body)
+        command = match.command if match else protocol.Command(body, protocol.ReplyKind.NONE, "unknown")
+        return self.link.exchange(protocol.Request(command, f":{body}#"), Priority.COMMAND)
+
+    # -- polling -----------------------------------------------------------------------------
+
+    def poll_once(self) -> MountState:
+        """Read position, status, tracking and pier side with four short queries (≈55 bytes)."""
+        ra, dec = self._exec(protocol.query("GMEQ"), Priority.POLL)
+        now = time.monotonic()
+        status = self._exec(protocol.query("GU"), Priority.POLL)
+        tracking = self._exec(protocol.query("GAT"), Priority.POLL)
+        pier = self._exec(protocol.query("Gm"), Priority.POLL)
+        state = self._state
+        moving = bool(state.moving_axes) or status.slewing
+        with self._estimator_lock:
+            if moving:
+                self._estimator.invalidate()
+                best = (ra, dec)
+            else:
+                if self._estimator.anchor_ra is None:
+                    target = self._goto_target
+                    if target is not None and _close(target, (ra, dec)):
+                        self._estimator.set_exact(target[0], target[1], now)
+                    self._goto_target = None
+                self._estimator.ra_rate = self._ra_drift(tracking)
+                best = self._estimator.observe(ra, dec, now)
+        self._poll_cycles += 1
+        return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now, status=status,
+                             status_time=now, tracking=tracking, pier=pier, poll_error="")
+
+    def _poll_loop(self) -> None:
+        while not self._stop.is_set():
+            state = self._state
+            busy = bool(state.moving_axes) or state.goto_running or state.is_guiding()
+            self._poll_wake.wait(self.poll_fast_s if busy else self.poll_slow_s)
+            self._poll_wake.clear()
+            if self._stop.is_set():
+                return
+            if not self.link.status.connected:
+                self._publish(poll_error=self.link.status.last_error)
+                self.link.wait_connected(1.0)
+                continue
+            try:
+                if self._init_generation != self.link.generation:
+                    self.ensure_initialised()
+                self.poll_once()
+            except AlpacaZwoError as exc:
+                log.debug("poll failed: %s", exc)
+                self._publish(poll_error=str(exc))
+
+    # -- helpers -----------------------------------------------------------------------------
+
+    def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND):  # noqa: ANN202
+        return self.link.execute(req, priority)
+
+    def _try(self, req: protocol.Request):  # noqa: ANN202
+        try:
+            return self._exec(req)
+        except (MountReplyError, ProtocolError, LinkError) as exc:
+            log.debug("%s failed: %s", req.text, exc)
+            return None
+
+    def _ra_drift(self, tracking: TrackingState | None = None) -> float:
+        """RA change in hours per second while nothing else moves the mount."""
+        tracking = tracking if tracking is not None else self._state.tracking
+        if tracking is None or not tracking.on:
+            return SIDEREAL_HOURS_PER_S
+        factor = TRACK_RATE_FACTORS[self._state.tracking_rate]
+        return SIDEREAL_HOURS_PER_S * (1.0 - factor)
+
+    def _rate_changed(self) -> None:
+        now = time.monotonic()
+        with self._estimator_lock:
+            self._estimator.set_ra_rate(self._ra_drift(), now)
+
+
+def _close(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Within the mount's reading resolution (1 s of RA, 1″ of Dec) plus a margin."""
+    dra_hours = abs((a[0] - b[0] + 12.0) % 24.0 - 12.0)
+    return dra_hours <= 1.5 / 3600.0 and abs(a[1] - b[1]) <= 1.5 / 3600.0
+
+
+def _host_utc_offset() -> timedelta:
+    offset = datetime.now().astimezone().utcoffset()
+    return offset if offset is not None else timedelta(0)

@@ -1,0 +1,250 @@
+"""Time and coordinate math shared by the emulator, the mount layer and the Telescope.
+
+Pure functions with no project imports, so the emulator and the server compute sidereal time, hour
+angle, Alt/Az and pier side with the very same code: a disagreement between the two would show up
+as a phantom pointing error or a wrong DestinationSideOfPier.
+
+Conventions (ASCOM's, not the ZWO protocol's):
+- hours for RA, HA and sidereal time; degrees for everything else;
+- longitude is EAST-positive (the mount's own east-negative sign is handled in ``protocol.py``);
+- azimuth is measured from north through east, in [0, 360);
+- UT1 is taken equal to UTC and TT = UTC + 69.184 s. The error this makes (|UT1-UTC| < 0.9 s) is
+  far below the mount's one-second RA resolution, and nothing here needs leap-second tables.
+"""
+
+from __future__ import annotations
+
+import math
+from datetime import datetime, timedelta, timezone
+from enum import IntEnum
+
+__all__ = [
+    "J2000_JD",
+    "TT_MINUS_UTC_S",
+    "PierSide",
+    "angular_separation",
+    "equatorial_to_horizontal",
+    "goto_pier_side",
+    "greenwich_mean_sidereal_time",
+    "horizontal_to_equatorial",
+    "hour_angle",
+    "julian_date",
+    "local_sidereal_time",
+    "pointing_state",
+    "ra_from_hour_angle",
+    "wrap_degrees_360",
+    "wrap_hours_12",
+    "wrap_hours_24",
+]
+
+J2000_JD = 2451545.0
+"""Julian date of the J2000.0 epoch, 2000-01-01 12:00 (taken on the UTC time line here)."""
+
+TT_MINUS_UTC_S = 69.184
+"""TT - UTC in seconds since 2017 (37 leap seconds + 32.184 s); only feeds a tiny GMST term."""
+
+_J2000 = datetime(2000, 1, 1, 12, 0, 0, tzinfo=timezone.utc)
+_SECONDS_PER_DAY = 86400.0
+_DAYS_PER_CENTURY = 36525.0
+_ARCSEC_TO_HOURS = 1.0 / 54000.0  # 15 arcsec of angle per second of time, 3600 s per hour
+
+
+# --- wrapping -------------------------------------------------------------------------------------
+# math.fmod is exact, unlike `x % m` whose result can round up to m itself for tiny negative x; the
+# explicit fix-ups below keep every result strictly inside its half-open interval.
+
+
+def wrap_hours_24(hours: float) -> float:
+    """Wrap an angle in hours into [0, 24)."""
+    r = math.fmod(hours, 24.0)
+    if r < 0.0:
+        r += 24.0
+        if r >= 24.0:  # -1e-17 + 24 rounds to 24; the same angle is 0
+            r = 0.0
+    return r
+
+
+def wrap_hours_12(hours: float) -> float:
+    """Wrap an angle in hours into [-12, 12), the range ASCOM uses for hour angles."""
+    r = math.fmod(hours, 24.0)
+    if r >= 12.0:
+        r -= 24.0  # exact (Sterbenz): r and 24 are within a factor of two
+    elif r < -12.0:
+        r += 24.0
+    return r
+
+
+def wrap_degrees_360(degrees: float) -> float:
+    """Wrap an angle in degrees into [0, 360)."""
+    r = math.fmod(degrees, 360.0)
+    if r < 0.0:
+        r += 360.0
+        if r >= 360.0:
+            r = 0.0
+    return r
+
+
+# --- time -----------------------------------------------------------------------------------------
+
+
+def _days_since_j2000(t: datetime) -> tuple[int, float]:
+    """Split the UTC days since J2000 into whole days and the fraction of a day.
+
+    Kept apart because the Earth rotation angle turns once a day: multiplying a ~9000-day float by
+    1.0027 would throw away sub-millisecond precision that the fraction alone keeps.
+    """
+    if t.utcoffset() is None:
+        t = t.replace(tzinfo=timezone.utc)  # naive means UTC, as in the mount's and Alpaca's clocks
+    delta: timedelta = t - _J2000  # exact, in whole microseconds
+    return delta.days, (delta.seconds + delta.microseconds / 1e6) / _SECONDS_PER_DAY
+
+
+def julian_date(t: datetime) -> float:
+    """Julian date of ``t`` on the UTC time line (a naive datetime is taken as UTC)."""
+    days, fraction = _days_since_j2000(t)
+    return J2000_JD + days + fraction
+
+
+def greenwich_mean_sidereal_time(t: datetime) -> float:
+    """Greenwich mean sidereal time in hours [0, 24), IAU 2006 model.
+
+    GMST = Earth rotation angle (a linear function of UT1) + a precession polynomial in TT
+    centuries. The same model as ``erfa.gmst06``, so the server, the emulator and standard
+    astronomy software agree to microseconds, given the UT1 = UTC approximation.
+    """
+    days, fraction = _days_since_j2000(t)
+    ut1_days = days + fraction
+    # Earth rotation angle in turns; the whole days drop out except through the 0.0027... term.
+    era_turns = math.fmod(fraction + 0.7790572732640 + 0.00273781191135448 * ut1_days, 1.0)
+    tc = (ut1_days + TT_MINUS_UTC_S / _SECONDS_PER_DAY) / _DAYS_PER_CENTURY
+    precession_arcsec = 0.014506 + tc * (
+        4612.156534 + tc * (1.3915817 + tc * (-0.00000044 + tc * (-0.000029956 + tc * -0.0000000368)))
+    )
+    return wrap_hours_24(era_turns * 24.0 + precession_arcsec * _ARCSEC_TO_HOURS)
+
+
+def local_sidereal_time(t: datetime, longitude_deg: float) -> float:
+    """Local mean sidereal time in hours [0, 24) at an EAST-positive longitude."""
+    return wrap_hours_24(greenwich_mean_sidereal_time(t) + longitude_deg / 15.0)
+
+
+def hour_angle(lst_hours: float, ra_hours: float) -> float:
+    """Hour angle in hours [-12, 12): negative east of the meridian (rising), positive west."""
+    return wrap_hours_12(lst_hours - ra_hours)
+
+
+def ra_from_hour_angle(lst_hours: float, ha_hours: float) -> float:
+    """Right ascension in hours [0, 24) of the point at ``ha_hours`` when the LST is ``lst_hours``."""
+    return wrap_hours_24(lst_hours - ha_hours)
+
+
+# --- equatorial <-> horizontal --------------------------------------------------------------------
+# Both directions are the same rotation about the east-west axis by (90 deg - latitude), written as
+# vectors and finished with atan2, which stays accurate at the zenith, the poles and the horizon
+# where the textbook asin/acos forms lose digits.
+
+
+def _rotate(lon_rad: float, lat_rad: float, phi_rad: float) -> tuple[float, float]:
+    """Swap between (HA, Dec) and (Az, Alt) frames; the rotation is its own inverse in this form."""
+    cos_lat = math.cos(lat_rad)
+    sin_lat = math.sin(lat_rad)
+    cos_lon = math.cos(lon_rad)
+    sin_phi = math.sin(phi_rad)
+    cos_phi = math.cos(phi_rad)
+    x = -cos_lon * cos_lat * sin_phi + sin_lat * cos_phi
+    y = -math.sin(lon_rad) * cos_lat
+    z = cos_lon * cos_lat * cos_phi + sin_lat * sin_phi
+    return math.atan2(y, x), math.atan2(z, math.hypot(x, y))
+
+
+def equatorial_to_horizontal(ha_hours: float, dec_deg: float, latitude_deg: float) -> tuple[float, float]:
+    """(altitude, azimuth) in degrees, geometric (no refraction), azimuth N->E in [0, 360).
+
+    At the zenith the azimuth is undefined and whatever atan2 yields is returned.
+    """
+    az, alt = _rotate(math.radians(ha_hours * 15.0), math.radians(dec_deg), math.radians(latitude_deg))
+    return math.degrees(alt), wrap_degrees_360(math.degrees(az))
+
+
+def horizontal_to_equatorial(
+    altitude_deg: float, azimuth_deg: float, latitude_deg: float
+) -> tuple[float, float]:
+    """(hour angle in hours [-12, 12), declination in degrees) of a geometric Alt/Az position.
+
+    At the celestial poles the hour angle is undefined and whatever atan2 yields is returned.
+    """
+    ha, dec = _rotate(math.radians(azimuth_deg), math.radians(altitude_deg), math.radians(latitude_deg))
+    return wrap_hours_12(math.degrees(ha) / 15.0), math.degrees(dec)
+
+
+def angular_separation(ra1_hours: float, dec1_deg: float, ra2_hours: float, dec2_deg: float) -> float:
+    """Great-circle distance in degrees between two equatorial positions.
+
+    Vincenty's atan2 form: accurate for tiny separations (slew-settled checks compare positions
+    arcseconds apart) and for nearly antipodal ones, where acos of a dot product is not.
+    """
+    d_ra = math.radians((ra2_hours - ra1_hours) * 15.0)
+    d1 = math.radians(dec1_deg)
+    d2 = math.radians(dec2_deg)
+    sin_d1, cos_d1 = math.sin(d1), math.cos(d1)
+    sin_d2, cos_d2 = math.sin(d2), math.cos(d2)
+    cos_dra = math.cos(d_ra)
+    num = math.hypot(cos_d2 * math.sin(d_ra), cos_d1 * sin_d2 - sin_d1 * cos_d2 * cos_dra)
+    den = sin_d1 * sin_d2 + cos_d1 * cos_d2 * cos_dra
+    return math.degrees(math.atan2(num, den))
+
+
+# --- pier side ------------------------------------------------------------------------------------
+
+
+class PierSide(IntEnum):
+    """ASCOM PierSide values, which are pointing states rather than physical sides.
+
+    EAST (0) is the "normal" state (counterweight down, looking at the western sky, HA >= 0);
+    WEST (1) is "through the pole" (looking at the eastern sky, HA < 0).
+    """
+
+    EAST = 0
+    WEST = 1
+    UNKNOWN = -1
+
+
+def pointing_state(ha_hours: float) -> PierSide:
+    """The ASCOM pointing state for a counterweight-down German mount at ``ha_hours``.
+
+    HA (wrapped into [-12, 12)) < 0 gives WEST, >= 0 gives EAST; a non-finite HA gives UNKNOWN.
+    ConformU checks exactly this: SideOfPier at HA -3/-9 is pierWest and at +3/+9 is pierEast.
+    """
+    if not math.isfinite(ha_hours):
+        return PierSide.UNKNOWN
+    return PierSide.WEST if wrap_hours_12(ha_hours) < 0.0 else PierSide.EAST
+
+
+def goto_pier_side(target_ha_hours: float, current_side: PierSide, meridian_limit_deg: float) -> PierSide:
+    """The pier side a German mount ends up on after a GOTO to ``target_ha_hours``.
+
+    With L = ``meridian_limit_deg`` / 15 hours (the mount's meridian setting, -15..+15 degrees,
+    positive = may track that far past the meridian, negative = must stop that far before it) and
+    the target HA wrapped into [-12, 12):
+
+    - HA < min(0, L)        -> WEST (ordinary eastern-sky target);
+    - 0 <= HA < L  (L > 0)  -> WEST: the target is just past the meridian but still within the
+      distance the mount may track on the west side, so it is reached (or kept) without a flip;
+    - L <= HA < 0  (L < 0)  -> EAST: the west side must stop before reaching this HA, so the mount
+      already takes the flipped side;
+    - HA >= max(0, L)       -> EAST (ordinary western-sky target).
+
+    Put together: WEST if HA < L else EAST, i.e. the flip line is the meridian moved by the limit.
+    With L = 0 this equals :func:`pointing_state`.
+
+    The choice depends on the target alone: ``current_side`` is accepted (the mount layer and the
+    emulator pass what they know) but deliberately does not change the answer, so that
+    DestinationSideOfPier is a pure function of target and settings and ConformU's repeated
+    queries never see it depend on where the previous test left the mount. A non-finite HA gives
+    UNKNOWN. Raises ValueError for a limit outside -15..+15 degrees (the mount's own range).
+    """
+    if not -15.0 <= meridian_limit_deg <= 15.0:  # also rejects NaN
+        raise ValueError(f"meridian limit {meridian_limit_deg!r} deg is outside -15..+15")
+    if not math.isfinite(target_ha_hours):
+        return PierSide.UNKNOWN
+    return PierSide.WEST if wrap_hours_12(target_ha_hours) < meridian_limit_deg / 15.0 else PierSide.EAST

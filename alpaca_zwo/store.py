@@ -1,0 +1,51 @@
+"""The live settings: one thread-safe holder that persists every change it is given.
+
+The Telescope (site, park position), the setup page (limits, safety) and the server all read
+the same :class:`Settings`; changes are whole-value replacements saved atomically, so a reader
+never sees half an update and a crash never leaves half a file.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+from .config import Settings, save_settings, validate_settings
+
+log = logging.getLogger(__name__)
+
+
+class SettingsStore:
+    """Holds the current Settings; ``path=None`` keeps changes in memory only (tests, --no-save)."""
+
+    def __init__(self, settings: Settings, path: Path | None = None) -> None:
+        self._settings = settings
+        self._path = path
+        self._lock = threading.Lock()
+        self._listeners: list[Callable[[Settings], None]] = []
+
+    @property
+    def settings(self) -> Settings:
+        return self._settings
+
+    @property
+    def path(self) -> Path | None:
+        return self._path
+
+    def update(self, change: Callable[[Settings], Settings]) -> Settings:
+        """Apply ``change`` to the current settings, validate, save, then tell the listeners."""
+        with self._lock:
+            updated = change(self._settings)
+            validate_settings(updated, self._path or "<settings>")
+            if self._path is not None:
+                save_settings(updated, self._path)
+            self._settings = updated
+            listeners = list(self._listeners)
+        for listener in listeners:
+            listener(updated)
+        return updated
+
+    def subscribe(self, listener: Callable[[Settings], None]) -> None:
+        self._listeners.append(listener)
