@@ -21,6 +21,7 @@ mount may have lost its time and site.
 from __future__ import annotations
 
 import collections
+import contextlib
 import logging
 import re
 import socket
@@ -373,10 +374,8 @@ class Link:
     def _close_port(self) -> None:
         port, self._port = self._port, None
         if port is not None:
-            try:
+            with contextlib.suppress(serial.SerialException, OSError):
                 port.close()
-            except (serial.SerialException, OSError):
-                pass
 
     def _lost(self, exc: BaseException) -> None:
         """Called with the arbiter held when the port failed: close it and start reconnecting."""

@@ -221,6 +221,8 @@ class Mount:
         self._stop = threading.Event()
         self._poller: threading.Thread | None = None
         self._move_directions: dict[int, Direction] = {}
+        #: Added to the host clock when the mount's time is pushed (a client may set UTCDate).
+        self.clock_offset = timedelta(0)
         self._goto_target: tuple[float, float] | None = None
         self._poll_cycles = 0
 
@@ -314,11 +316,11 @@ class Mount:
         The mount keeps whole seconds, so the command is sent on a second boundary (waiting at
         most a second) to avoid a systematic half-second error in its sidereal time.
         """
-        now = self.clock()
+        now = self.clock() + self.clock_offset
         wait = 1.0 - now.microsecond / 1e6
         if 0.0 < wait < 1.0 and self.clock is utc_now:
             time.sleep(wait)
-            now = self.clock()
+            now = self.clock() + self.clock_offset
         offset = self._utc_offset()
         local = now + offset
         hours = offset.total_seconds() / 3600.0
@@ -352,7 +354,6 @@ class Mount:
         with self._estimator_lock:
             self._estimator.invalidate()
             self._goto_target = (ra, dec)
-        self._publish(status=replace(self._state.status or MountStatus(), slewing=True), status_time=time.monotonic())
         self.refresh()
 
     def sync(self, ra: float, dec: float) -> None:
@@ -366,6 +367,14 @@ class Mount:
             self._estimator.set_ra_rate(self._ra_drift(), now)
         self._publish(ra=ra % 24.0, dec=dec, position_time=now)
         self.refresh()
+
+    def sync_estimate(self, ra: float, dec: float) -> None:
+        """Adopt exact coordinates the mount already agrees with, without a sync command."""
+        now = time.monotonic()
+        with self._estimator_lock:
+            self._estimator.set_exact(ra, dec, now)
+            self._estimator.set_ra_rate(self._ra_drift(), now)
+        self._publish(ra=ra % 24.0, dec=dec, position_time=now)
 
     def stop(self) -> None:
         """Stop every motion (GOTO, home, manual moves, pulses); tracking keeps its setting."""
@@ -455,7 +464,7 @@ class Mount:
         self._exec(protocol.query("hC"))
         with self._estimator_lock:
             self._estimator.invalidate()
-        self._publish(status=replace(self._state.status or MountStatus(), slewing=True), status_time=time.monotonic())
+            self._goto_target = None
         self.refresh()
 
     # -- settings stored in the mount ---------------------------------------------------------
@@ -558,10 +567,10 @@ class Mount:
 
     # -- helpers -----------------------------------------------------------------------------
 
-    def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND):  # noqa: ANN202
+    def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND):
         return self.link.execute(req, priority)
 
-    def _try(self, req: protocol.Request):  # noqa: ANN202
+    def _try(self, req: protocol.Request):
         try:
             return self._exec(req)
         except (MountReplyError, ProtocolError, LinkError) as exc:

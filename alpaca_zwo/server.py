@@ -1,0 +1,176 @@
+"""Composition root: settings -> link -> mount -> telescope -> app -> waitress, plus discovery.
+
+Everything with a lifetime is started here and stopped here, in reverse order, so shutdown can
+make the mounts safe (stop manual motion, optionally park) before their links close.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any
+
+from . import __version__
+from .alpaca.app import ServerInfo, create_app
+from .alpaca.http import HttpServer
+from .clients import ClientRegistry
+from .config import DeviceSettings, Settings
+from .link import Link
+from .mount import Mount, utc_now
+from .store import SettingsStore
+from .telescope import Telescope
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Overrides:
+    """Command-line choices that apply to this run only and are never written to the config file."""
+
+    host: str | None = None
+    port: int | None = None
+    discovery_port: int | None = None
+    device_url: str | None = None
+    mdns: bool | None = None
+    emulator_speed: float | None = None
+    emulator_baud: int | None = None
+
+
+class EmbeddedEmulator:
+    """The built-in mount, served on a loopback TCP port so the whole driver stack is exercised."""
+
+    def __init__(self, settings: Settings, speed: float, baud: int) -> None:
+        from .emulator import EmulatorServer, FirmwareVariant, MountModel, ScaledClock
+
+        self.clock = ScaledClock(speed=speed)
+        firmware = FirmwareVariant(model=settings.emulator.model, version=settings.emulator.firmware)
+        self.model = MountModel(self.clock, firmware=firmware)
+        self.server = EmulatorServer(self.model, host="127.0.0.1", port=0, baud=baud)
+        self.server.start()
+        self.url = f"socket://127.0.0.1:{self.server.port}"
+        log.info("built-in emulator (%s %s, speed %gx) at %s", firmware.model, firmware.version, speed, self.url)
+
+    def now(self) -> datetime:
+        return self.clock.now()
+
+    def stop(self) -> None:
+        self.server.stop()
+
+
+class AlpacaZwoServer:
+    """The running product. ``start()`` returns once HTTP is serving; ``stop()`` is idempotent."""
+
+    def __init__(self, store: SettingsStore, overrides: Overrides | None = None,
+                 extra_routes_factory: Callable[[AlpacaZwoServer], list[tuple[str, Any]]] | None = None) -> None:
+        self.store = store
+        self.overrides = overrides or Overrides()
+        self.registry = ClientRegistry()
+        self.emulators: list[EmbeddedEmulator | None] = []
+        self.telescopes: list[Telescope] = []
+        self.http: HttpServer | None = None
+        self.discovery: Any = None
+        self.advertiser: Any = None
+        self._extra_routes_factory = extra_routes_factory
+        self._stopped = threading.Event()
+
+    @property
+    def settings(self) -> Settings:
+        return self.store.settings
+
+    @property
+    def port(self) -> int:
+        assert self.http is not None
+        return self.http.port
+
+    def _device_url(self, index: int, device: DeviceSettings) -> str:
+        if index == 0 and self.overrides.device_url is not None:
+            return self.overrides.device_url
+        return device.url
+
+    def start(self) -> None:
+        settings = self.settings
+        for index, device in enumerate(settings.devices):
+            url = self._device_url(index, device)
+            clock: Callable[[], datetime] = utc_now
+            emulator = None
+            if not url:
+                speed = self.overrides.emulator_speed or settings.emulator.speed
+                baud = settings.emulator.baud if self.overrides.emulator_baud is None else self.overrides.emulator_baud
+                emulator = EmbeddedEmulator(settings, speed, baud)
+                url, clock = emulator.url, emulator.now
+            self.emulators.append(emulator)
+            link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)
+            mount = Mount(link, self._site, clock=clock)
+            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry, clock=clock))
+
+        server = settings.server
+        info = ServerInfo(server_name="alpaca-zwo", manufacturer="alpaca-zwo project",
+                          manufacturer_version=__version__, location=server.location)
+        auth = (server.basic_auth_user, server.basic_auth_password) if server.basic_auth_user else None
+        extra = self._extra_routes_factory(self) if self._extra_routes_factory else []
+        app = create_app(self.telescopes, self.registry, info, max_body_bytes=server.max_body_bytes,
+                         basic_auth=auth, extra_routes=extra)
+        host = self.overrides.host or server.host
+        port = server.port if self.overrides.port is None else self.overrides.port
+        self.http = HttpServer(app, host, port, threads=server.threads)
+        self.http.start()
+
+        discovery_port = server.discovery_port if self.overrides.discovery_port is None else self.overrides.discovery_port
+        if discovery_port:
+            from .alpaca.discovery import DiscoveryResponder
+
+            self.discovery = DiscoveryResponder(self.http.port, discovery_port)
+            try:
+                self.discovery.start()
+            except OSError as exc:
+                log.error("discovery responder could not bind UDP port %d: %s", discovery_port, exc)
+                self.discovery = None
+        mdns = server.mdns if self.overrides.mdns is None else self.overrides.mdns
+        if mdns:
+            from .alpaca.advertise import MdnsAdvertiser
+
+            self.advertiser = MdnsAdvertiser(self.http.port, f"alpaca-zwo on port {self.http.port}")
+            self.advertiser.start()
+
+    def _site(self) -> tuple[float, float]:
+        site = self.settings.site
+        return site.latitude, site.longitude
+
+    def urls(self) -> list[str]:
+        host = self.overrides.host or self.settings.server.host
+        shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+        base = f"http://{shown}:{self.port}"
+        lines = [f"Alpaca API:   {base}/api/v1/telescope/{i}/" for i in range(len(self.telescopes))]
+        lines.append(f"Setup page:   {base}/setup")
+        if host in ("0.0.0.0", "::", ""):
+            lines.append(f"(listening on all interfaces, port {self.port})")
+        if self.discovery is not None:
+            lines.append(f"Discovery:    UDP port {self.discovery.port}")
+        return lines
+
+    def stop(self) -> None:
+        """Make the mounts safe, then close everything; safe to call twice."""
+        if self._stopped.is_set():
+            return
+        self._stopped.set()
+        on_shutdown = self.settings.safety.on_shutdown
+        for telescope in self.telescopes:
+            telescope.shutdown(park=on_shutdown == "park")
+        if self.advertiser is not None:
+            self.advertiser.stop()
+        if self.discovery is not None:
+            self.discovery.stop()
+        if self.http is not None:
+            self.http.close()
+        for emulator in self.emulators:
+            if emulator is not None:
+                emulator.stop()
+
+
+def with_device_url(settings: Settings, url: str) -> Settings:
+    devices = (dataclasses.replace(settings.devices[0], url=url), *settings.devices[1:])
+    return dataclasses.replace(settings, devices=devices)
