@@ -1,0 +1,1086 @@
+"""The physics and state of an emulated ZWO AM mount.
+
+A German equatorial mount is two mechanical axes, not a pair of sky coordinates: the primary
+(RA) axis angle ``p`` and the secondary (Dec) axis angle ``s``, both in degrees here.
+
+- Pointing side WEST (ASCOM pierWest, looking east, the normal side): HA = p, Dec = s.
+- Pointing side EAST (through the pole, looking west): HA = p + 12 h, Dec = 180 - s.
+- Home: p = -90 (HA -6 h), s = 90 (the pole); ``:Gm#`` says ``N`` there.
+
+Everything a client sees is derived from (p, s), the mount's own clock and its stored site,
+exactly as on the real mount: RA drifts with sidereal time when tracking is off, LST and Alt/Az
+are wrong until the client sets time and site, a meridian flip swings the Dec axis through the
+pole and takes as long as it would on the real thing.
+
+Motion is integrated lazily: every public call first advances the physics to ``clock.seconds()``
+in bounded steps, so the result depends only on the sequence of clock readings (a
+``ManualClock`` makes tests exact). Each step integrates a trapezoidal velocity profile exactly
+(accelerate at ``accel`` toward the commanded velocity, then hold it), so a 1000 ms guide pulse
+moves exactly rate x 1 s however the steps fall. GOTOs use a sampled braking-curve controller
+that chases the target's moving hour angle and snaps onto it once within a fraction of an
+arcsecond.
+
+Not modelled (documented in the report): alt-az physics (``:AA#`` only changes the reported
+mode), southern-hemisphere homes (home is always the north celestial pole), refraction,
+encoder/periodic errors, ST-4 guiding and the meaning of the ``:GU#`` digits.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass, field, fields
+from datetime import date, datetime, time, timedelta, timezone
+from typing import Any
+
+from .. import sky
+from ..protocol import SLEW_SPEEDS, MeridianSettings, MountMode, MountStatus
+from .clock import Clock
+from .faults import FaultEvent, Faults
+
+__all__ = [
+    "FACTORY_LATITUDE",
+    "FACTORY_LONGITUDE",
+    "LUNAR_DEG_S",
+    "SIDEREAL_DEG_S",
+    "SOLAR_DEG_S",
+    "FirmwareVariant",
+    "MountModel",
+]
+
+# --------------------------------------------------------------------------------------------
+# Constants
+# --------------------------------------------------------------------------------------------
+
+SIDEREAL_DEG_S = 360.0 * 1.00273790935 / 86400.0  # HA rate of a fixed star: 15.041"/s
+SOLAR_DEG_S = 360.0 / 86400.0  # mean Sun: 15.000"/s
+LUNAR_DEG_S = 14.685 / 3600.0  # ASCOM's driveLunar rate
+
+#: The site stored in every mount at the factory (Suzhou): +31°15'41", 120°43'11" E.
+FACTORY_LATITUDE = 31.0 + 15.0 / 60.0 + 41.0 / 3600.0
+FACTORY_LONGITUDE = 120.0 + 43.0 / 60.0 + 11.0 / 3600.0
+
+HOME_P = -90.0  # HA -6 h, the convention real mounts report at home (RA = LST + 6 h)
+HOME_S = 90.0
+#: Factory park: counterweight down (p = home), OTA horizontal pointing due east (Dec 0 at HA -6 h).
+PARK_P = -90.0
+PARK_S = 0.0
+
+ACCEL_DEG_S2 = 3.0
+SLEW_STEP_S = 0.02  # sampled-controller period during GOTO/home/park slews
+STEADY_STEP_S = 1.0  # exact integration allows long steps otherwise; bounds horizon-check lag
+SNAP_DEG = 0.3 / 3600.0  # a slewing axis this close to its target locks onto it
+AT_HOME_DEG = 1e-6
+PULSE_MAX_MS = 3000
+SYNC_MAX_DEG = 20.0
+SYNC_POLE_DEG = 85.0
+EPOCH_LOCAL = datetime(2000, 1, 1)  # the mount's clock at power-on: 01/01/00 00:00:00
+
+_TRACK_RATES = ("sidereal", "solar", "lunar", "custom")
+_HOME_FLAGS = ("after_home", "never", "always_at_home")
+_GT_MAPPINGS = ("english", "chinese")
+_GPS_REPLIES = ("digits", "empty")
+_HP_REPLIES = (None, "1#")
+_GH_REPLIES = ("empty", "zero", "homed")
+RA, DEC = 0, 1
+
+
+# --------------------------------------------------------------------------------------------
+# Firmware variants
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class FirmwareVariant:
+    """Switches for the behaviours that differ between real firmware builds (field notes §5.6, §6).
+
+    Mutable on purpose: a test may flip one switch on a running model to see how a client copes.
+    """
+
+    model: str = "AM5"  # :GVP#
+    version: str = "1.9.2"  # :GV#
+    compile_time: str = "10:24:36"  # :GVT# (listed in V1.1, unconfirmed on hardware)
+    home_flag: str = "after_home"  # 'H' in :GU#: after_home | never | always_at_home
+    gt_mapping: str = "english"  # :GT# digits: english 1 solar 2 lunar | chinese 1 lunar 2 solar
+    gps_reply: str = "digits"  # :Gps#: digits 0/1/2 | empty '#'
+    hp_reply: str | None = None  # :hP#: None (no reply, v1.8+) | "1#" (1#/0#, seen by PYAM5)
+    gh_reply: str = "empty"  # :Gh#: empty '#' | zero '0#' | homed '1#' after a home, else '0#'
+    compound_goto_sync: bool = False  # False: :SMeq/:SMMC answer e2# as on hardware
+    custom_tracking: bool = False  # False: :STR gets no reply (absent on real firmware)
+    gmza_south_azimuth: bool = False  # True: :GMZA# azimuth from south (AM5N showed 180 at home)
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Reject a misspelt switch value early instead of silently acting as the default."""
+        choices = {
+            "home_flag": _HOME_FLAGS,
+            "gt_mapping": _GT_MAPPINGS,
+            "gps_reply": _GPS_REPLIES,
+            "hp_reply": _HP_REPLIES,
+            "gh_reply": _GH_REPLIES,
+        }
+        for name, allowed in choices.items():
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"FirmwareVariant.{name} must be one of {allowed}, not {getattr(self, name)!r}")
+        if self.model not in ("AM3", "AM5", "AM5N", "AM7"):
+            raise ValueError(f"unknown mount model {self.model!r}")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+# --------------------------------------------------------------------------------------------
+# Internal state pieces
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Persistent:
+    """What the mount keeps in flash across power cycles (field notes §5.3)."""
+
+    limits_enabled: bool = False
+    upper_limit: int = 90
+    lower_limit: int = 0
+    max_speed: int = 1440  # heavy duty: 720
+    mode: MountMode = MountMode.EQUATORIAL  # takes effect at the next power-up
+    parked: bool = False  # the :hP# latch, cleared only by :Spu#
+    custom_park: tuple[float, float] | None = None  # (p, s) stored by :Sp01#
+    buzzer: int = 1
+    meridian: MeridianSettings = field(default_factory=MeridianSettings)
+    guide_rate: float = 0.5
+    ble_suffix: str = "123456"  # takes effect at the next power-up
+    ble_paired: str | None = None
+    latitude: float = FACTORY_LATITUDE
+    longitude: float = FACTORY_LONGITUDE  # east positive; the mount shows it east-negative
+
+
+@dataclass
+class _Slew:
+    """A GOTO, home or park slew: per-axis targets, the primary one possibly moving."""
+
+    kind: str  # goto | home | park
+    t0: float  # emulated seconds at the start
+    p0: float  # primary target at t0
+    p_rate: float  # primary target velocity (sidereal for a GOTO: the target's HA grows)
+    s: float
+    done: list[bool] = field(default_factory=lambda: [False, False])
+
+    def target(self, axis: int, t: float) -> float:
+        return self.p0 + self.p_rate * (t - self.t0) if axis == RA else self.s
+
+    def velocity(self, axis: int) -> float:
+        return self.p_rate if axis == RA else 0.0
+
+
+@dataclass
+class _Pulse:
+    velocity: float  # mechanical deg/s added to the axis
+    end: float  # emulated seconds
+
+
+def _ramp(pos: float, vel: float, target: float, accel: float, dt: float) -> tuple[float, float]:
+    """Exact position and velocity after ``dt`` when accelerating at ``accel`` toward ``target``."""
+    dv = target - vel
+    t1 = abs(dv) / accel
+    if t1 >= dt:
+        new_vel = vel + math.copysign(accel * dt, dv)
+        return pos + (vel + new_vel) * 0.5 * dt, new_vel
+    return pos + (vel + target) * 0.5 * t1 + target * (dt - t1), target
+
+
+def _raw_ha_dec(p: float, s: float) -> tuple[float, float]:
+    """(HA hours, Dec degrees) the mechanical axes point at, before any alignment offset."""
+    if -90.0 <= s <= 90.0:
+        return sky.wrap_hours_12(p / 15.0), s
+    dec = 180.0 - s if s > 90.0 else -180.0 - s
+    return sky.wrap_hours_12(p / 15.0 + 12.0), dec
+
+
+# --------------------------------------------------------------------------------------------
+# The model
+# --------------------------------------------------------------------------------------------
+
+
+class MountModel:
+    """One emulated mount: thread-safe (one lock), advanced lazily to the clock on every call.
+
+    Methods return plain values (bools, error codes, floats); the ``Responder`` turns them into
+    the mount's exact reply text.
+    """
+
+    def __init__(
+        self,
+        clock: Clock,
+        firmware: FirmwareVariant | None = None,
+        site: tuple[float, float] | None = None,
+        *,
+        initialized: bool = False,
+        faults: Faults | None = None,
+        accel: float = ACCEL_DEG_S2,
+    ) -> None:
+        """``site`` is the (latitude, east longitude) stored in the mount, returned after every
+        power-up; ``initialized`` starts as if a client had already set date, time and site."""
+        self._lock = threading.RLock()
+        self._clock = clock
+        self.firmware = firmware if firmware is not None else FirmwareVariant()
+        self._accel = accel
+        self._persist = _Persistent()
+        if site is not None:
+            self._persist.latitude, self._persist.longitude = float(site[0]), float(site[1])
+        self.faults = faults if faults is not None else Faults()
+        self.faults.add_listener(self._on_fault)
+        self.power_ups = 0
+        self._t = clock.seconds()
+        self._power_up()
+        if initialized:
+            self.initialize()
+
+    # ---------------------------------------------------------------- lifecycle
+
+    @property
+    def clock(self) -> Clock:
+        return self._clock
+
+    def _on_fault(self, event: FaultEvent) -> None:
+        if event.kind == "reboot":
+            self.power_cycle()
+
+    def power_cycle(self) -> None:
+        """Switch the mount off and on: volatile state is lost, flash settings are kept."""
+        with self._lock:
+            self._advance()
+            self._power_up()
+
+    def _power_up(self) -> None:
+        persist = self._persist
+        self.power_ups += 1
+        # The mount's own clock: no RTC, so 01/01/00 00:00:00 at power-on, zone +00:00.
+        self._local_ref = EPOCH_LOCAL
+        self._local_ref_t = self._t
+        self._utc_offset = 0.0  # true UTC offset in hours (the mount shows it negated)
+        self._dst = False
+        self._lst_offset = 0.0  # hours, from :SS#
+        self._date_set = self._time_set = False
+        self._lat_set = self._lon_set = False
+        self._latitude = persist.latitude
+        self._longitude = persist.longitude
+        self._mode = persist.mode
+        self._ble_suffix = persist.ble_suffix
+        # Mechanics
+        self._pos = [HOME_P, HOME_S]
+        self._vel = [0.0, 0.0]
+        self._last_side = sky.PierSide.WEST
+        self._slew: _Slew | None = None
+        self._moves: list[float | None] = [None, None]
+        self._pulses: list[_Pulse | None] = [None, None]
+        self._speed = SLEW_SPEEDS[9]
+        self._axis_speed: list[float | None] = [None, None]
+        # Tracking
+        self._tracking = False
+        self._track_rate = "sidereal"
+        self._custom_multiple = 1.0
+        self._track_error: int | None = None
+        # Targets and alignment
+        self._target_ra = 0.0
+        self._target_dec = 0.0
+        self._offset_ra = 0.0  # hours
+        self._offset_dec = 0.0  # degrees
+        self._alignment_points = 0
+        # Home bookkeeping
+        self._homed = False  # a home slew completed since power-up
+        self._home_flag = False  # 'H' latch of the after_home variant
+
+    def initialize(self, utc: datetime | None = None) -> None:
+        """Set date, time (zone +00:00) and mark the stored site as set, as a client would."""
+        with self._lock:
+            self._advance()
+            now = utc if utc is not None else self._clock.now()
+            if now.tzinfo is not None:
+                now = now.astimezone(timezone.utc).replace(tzinfo=None)
+            self._set_local(now)
+            self._utc_offset = 0.0
+            self._date_set = self._time_set = self._lat_set = self._lon_set = True
+
+    # ---------------------------------------------------------------- physics
+
+    def _advance(self) -> None:
+        """Integrate the physics up to the clock's present (callers hold the lock)."""
+        now = self._clock.seconds()
+        guard = 0
+        while now - self._t > 1e-12:
+            dt = min(now - self._t, SLEW_STEP_S if self._slew is not None else STEADY_STEP_S)
+            for pulse in self._pulses:
+                if pulse is not None and pulse.end - self._t > 1e-12:
+                    dt = min(dt, pulse.end - self._t)
+            if self._slew is None:
+                dt = self._until_meridian(dt)
+            self._step(dt)
+            self._t += dt
+            for axis, pulse in enumerate(self._pulses):
+                if pulse is not None and pulse.end - self._t <= 1e-9:
+                    self._pulses[axis] = None
+            guard += 1
+            if guard > 10_000_000:  # pragma: no cover - a bug, not a state
+                raise RuntimeError("emulator physics failed to advance")
+
+    def _until_meridian(self, dt: float) -> float:
+        """Shorten a steady tracking step so the meridian stop happens where it should."""
+        if not self._tracking:
+            return dt
+        v = self._vel[RA]
+        p = self._pos[RA]
+        stop = self._meridian_stop_deg()
+        if v > 0.0 and v == self._commanded(RA) and p <= stop < p + v * dt:
+            return max((stop - p) / v + 1e-9, 1e-9)
+        return dt
+
+    def _step(self, dt: float) -> None:
+        if self._slew is not None:
+            self._slew_step(dt)
+        else:
+            for axis in (RA, DEC):
+                self._pos[axis], self._vel[axis] = _ramp(
+                    self._pos[axis], self._vel[axis], self._commanded(axis), self._accel, dt
+                )
+        self._note_side()
+        if self._tracking and self._slew is None:
+            self._check_tracking_limits()
+
+    def _slew_step(self, dt: float) -> None:
+        slew = self._slew
+        assert slew is not None
+        vmax = self._persist.max_speed * SIDEREAL_DEG_S
+        t = self._t
+        for axis in (RA, DEC):
+            vt = slew.velocity(axis)
+            if slew.done[axis]:
+                self._pos[axis] = slew.target(axis, t + dt)
+                self._vel[axis] = vt
+                continue
+            error = slew.target(axis, t) - self._pos[axis]
+            if abs(error) <= SNAP_DEG and abs(self._vel[axis] - vt) <= self._accel * dt + 1e-9:
+                slew.done[axis] = True
+                self._pos[axis] = slew.target(axis, t + dt)
+                self._vel[axis] = vt
+                continue
+            # Braking curve (never faster than it can stop), and never more than the remaining
+            # error per step, so the sampled controller settles instead of ringing.
+            speed = min(vmax, math.sqrt(2.0 * self._accel * abs(error)), abs(error) / dt)
+            desired = max(-vmax, min(vmax, vt + math.copysign(speed, error)))
+            self._pos[axis], self._vel[axis] = _ramp(self._pos[axis], self._vel[axis], desired, self._accel, dt)
+        if all(slew.done):
+            self._arrive(slew)
+
+    def _arrive(self, slew: _Slew) -> None:
+        self._slew = None
+        if slew.kind == "goto":
+            self._tracking = True  # GOTO arrival switches tracking on, at the selected rate
+            self._track_error = None
+        else:
+            self._tracking = False
+            self._vel = [0.0, 0.0]
+            if slew.kind == "home":
+                self._pos = [HOME_P, HOME_S]
+                self._homed = True
+                self._home_flag = True
+
+    def _commanded(self, axis: int) -> float:
+        """Steady velocity an axis is driven at outside slews (mechanical deg/s)."""
+        move = self._moves[axis]
+        pulse = self._pulses[axis]
+        extra = (move or 0.0) + (pulse.velocity if pulse is not None else 0.0)
+        if axis == DEC:
+            return extra
+        tracking = self._tracking_velocity() if self._tracking else 0.0
+        if (move is not None or pulse is not None) and not self._tracking:
+            # Moves and pulses are relative to the sky: the RA reading changes at the commanded
+            # rate whether or not tracking is on (PYAM5 observation), so they ride on sidereal.
+            return SIDEREAL_DEG_S + extra
+        return tracking + extra
+
+    def _tracking_velocity(self) -> float:
+        return {
+            "sidereal": SIDEREAL_DEG_S,
+            "solar": SOLAR_DEG_S,
+            "lunar": LUNAR_DEG_S,
+            "custom": self._custom_multiple * SIDEREAL_DEG_S,
+        }[self._track_rate]
+
+    def _check_tracking_limits(self) -> None:
+        if self._pos[RA] > self._meridian_stop_deg():
+            self._tracking = False
+            self._track_error = 8
+            return
+        if self._raw_altitude() < 0.0:
+            self._tracking = False
+            self._track_error = 5
+
+    def _meridian_stop_deg(self) -> float:
+        """Primary-axis angle past which tracking stops (field notes §5.3, ZWO v2.1 p.18)."""
+        settings = self._persist.meridian
+        limit = float(settings.limit_degrees)
+        if limit < 0.0:
+            return limit
+        return max(limit, 1.0) if settings.track_after else 1.0
+
+    def _goto_limit_deg(self) -> float:
+        """The limit handed to ``sky.goto_pier_side``: how far past the meridian the west side may go."""
+        settings = self._persist.meridian
+        limit = float(settings.limit_degrees)
+        return limit if limit < 0.0 or settings.track_after else 0.0
+
+    def _note_side(self) -> None:
+        s = self._pos[DEC]
+        if s < 90.0 - 1e-9 and s > -90.0 + 1e-9:
+            self._last_side = sky.PierSide.WEST
+        elif s > 90.0 + 1e-9 or s < -90.0 - 1e-9:
+            self._last_side = sky.PierSide.EAST
+
+    # ---------------------------------------------------------------- derived quantities
+
+    def _at_home_position(self) -> bool:
+        return abs(self._pos[RA] - HOME_P) < AT_HOME_DEG and abs(self._pos[DEC] - HOME_S) < AT_HOME_DEG
+
+    def _side(self) -> sky.PierSide:
+        return self._last_side
+
+    def _moving(self) -> bool:
+        """A slew, manual move or pulse is under way (tracking alone does not count)."""
+        return (
+            self._slew is not None
+            or any(m is not None for m in self._moves)
+            or any(p is not None for p in self._pulses)
+        )
+
+    def _raw_ha_dec(self) -> tuple[float, float]:
+        return _raw_ha_dec(self._pos[RA], self._pos[DEC])
+
+    def _raw_altitude(self) -> float:
+        ha, dec = self._raw_ha_dec()
+        return sky.equatorial_to_horizontal(ha, dec, self._latitude)[0]
+
+    def _local_now(self) -> datetime:
+        return self._local_ref + timedelta(seconds=self._t - self._local_ref_t)
+
+    def _set_local(self, value: datetime) -> None:
+        self._local_ref = value
+        self._local_ref_t = self._t
+
+    def _mount_utc(self) -> datetime:
+        hours = self._utc_offset + (1.0 if self._dst else 0.0)
+        return (self._local_now() - timedelta(hours=hours)).replace(tzinfo=timezone.utc)
+
+    def _lst(self) -> float:
+        return sky.wrap_hours_24(
+            sky.local_sidereal_time(self._mount_utc(), self._longitude) + self._lst_offset
+        )
+
+    def _reported(self) -> tuple[float, float]:
+        ha, dec = self._raw_ha_dec()
+        raw_ra = sky.ra_from_hour_angle(self._lst(), ha)
+        ra = sky.wrap_hours_24(raw_ra + self._offset_ra)
+        return ra, max(-90.0, min(90.0, dec + self._offset_dec))
+
+    def _initialized(self) -> bool:
+        return self._date_set and self._time_set and self._lat_set and self._lon_set
+
+    # ---------------------------------------------------------------- date, time, site
+
+    def local_datetime(self) -> datetime:
+        """The mount's own (naive, local) wall clock."""
+        with self._lock:
+            self._advance()
+            return self._local_now()
+
+    def set_date(self, day: date) -> bool:
+        with self._lock:
+            self._advance()
+            now = self._local_now()
+            self._set_local(datetime.combine(day, now.time()))
+            self._date_set = True
+            return True
+
+    def set_time(self, clock: time) -> bool:
+        with self._lock:
+            self._advance()
+            self._set_local(datetime.combine(self._local_now().date(), clock))
+            self._time_set = True
+            return True
+
+    def set_utc_offset(self, utc_offset_hours: float) -> bool:
+        """The true offset (``:SG-08#`` means +8); the wire sign is the responder's business."""
+        if not -14.0 <= utc_offset_hours <= 14.0:
+            return False
+        with self._lock:
+            self._advance()
+            self._utc_offset = utc_offset_hours
+            return True
+
+    def utc_offset(self) -> float:
+        with self._lock:
+            return self._utc_offset
+
+    def set_date_time_zone(self, day: date, clock: time, utc_offset_hours: float) -> bool:
+        if not -14.0 <= utc_offset_hours <= 14.0:
+            return False
+        with self._lock:
+            self._advance()
+            self._set_local(datetime.combine(day, clock))
+            self._utc_offset = utc_offset_hours
+            self._date_set = self._time_set = True
+            return True
+
+    def set_dst(self, on: bool) -> bool:
+        """Daylight saving: the wall clock stays, UTC moves by an hour (so LST does too)."""
+        with self._lock:
+            self._advance()
+            self._dst = on
+            return True
+
+    def dst(self) -> bool:
+        with self._lock:
+            return self._dst
+
+    def set_sidereal_time(self, hours: float) -> bool:
+        """``:SS#``: make the LST read ``hours`` now, as an offset on the clock-derived LST."""
+        with self._lock:
+            self._advance()
+            self._lst_offset = 0.0
+            self._lst_offset = sky.wrap_hours_12(hours - self._lst())
+            return True
+
+    def sidereal_time(self) -> float:
+        with self._lock:
+            self._advance()
+            return self._lst()
+
+    def set_latitude(self, degrees: float) -> bool:
+        if not -90.0 <= degrees <= 90.0:
+            return False
+        with self._lock:
+            self._advance()
+            self._latitude = degrees
+            self._lat_set = True
+            return True
+
+    def set_longitude(self, east_degrees: float) -> bool:
+        if not -180.0 <= east_degrees <= 180.0:
+            return False
+        with self._lock:
+            self._advance()
+            self._longitude = east_degrees
+            self._lon_set = True
+            return True
+
+    def latitude(self) -> float:
+        with self._lock:
+            return self._latitude
+
+    def longitude(self) -> float:
+        """East-positive longitude the mount currently uses."""
+        with self._lock:
+            return self._longitude
+
+    # ---------------------------------------------------------------- position, target
+
+    def position(self) -> tuple[float, float]:
+        """(RA hours, Dec degrees) the mount reports, alignment offsets included."""
+        with self._lock:
+            self._advance()
+            return self._reported()
+
+    def horizontal(self) -> tuple[float, float]:
+        """(altitude, azimuth from north) of the reported position, at the mount's site and LST."""
+        with self._lock:
+            self._advance()
+            ra, dec = self._reported()
+            return sky.equatorial_to_horizontal(sky.hour_angle(self._lst(), ra), dec, self._latitude)
+
+    def axes(self) -> tuple[float, float]:
+        """Mechanical (primary, secondary) axis angles in degrees, for tests and inspection."""
+        with self._lock:
+            self._advance()
+            return self._pos[RA], self._pos[DEC]
+
+    def pier_letter(self) -> str:
+        """``:Gm#``: N at home, else W (pierWest, looking east) or E (through the pole)."""
+        with self._lock:
+            self._advance()
+            if self._at_home_position():
+                return "N"
+            return "W" if self._side() is sky.PierSide.WEST else "E"
+
+    def set_target_ra(self, hours: float) -> bool:
+        with self._lock:
+            self._target_ra = hours
+            return True
+
+    def set_target_dec(self, degrees: float) -> bool:
+        if not -90.0 <= degrees <= 90.0:
+            return False
+        with self._lock:
+            self._target_dec = degrees
+            return True
+
+    def target(self) -> tuple[float, float]:
+        with self._lock:
+            return self._target_ra, self._target_dec
+
+    # ---------------------------------------------------------------- GOTO, home, park, stop
+
+    def goto(self) -> int:
+        """Start a GOTO to the target; 0 on success, else the mount's error code."""
+        with self._lock:
+            self._advance()
+            if self._persist.parked:
+                return 4  # a guess: no ZWO code for "parked" is published (OnStep uses 4)
+            if not self._initialized():
+                return 7
+            if self._slew is not None:
+                return 3
+            lst = self._lst()
+            ha = sky.hour_angle(lst, self._target_ra)
+            alt, _ = sky.equatorial_to_horizontal(ha, self._target_dec, self._latitude)
+            if alt < 0.0:
+                return 5
+            persist = self._persist
+            if persist.limits_enabled and not persist.lower_limit <= alt <= persist.upper_limit:
+                return 6
+            raw_ra = sky.wrap_hours_24(self._target_ra - self._offset_ra)
+            raw_dec = max(-90.0, min(90.0, self._target_dec - self._offset_dec))
+            raw_ha = sky.hour_angle(lst, raw_ra)
+            side = sky.goto_pier_side(raw_ha, self._side(), self._goto_limit_deg())
+            if side is sky.PierSide.EAST:
+                p, s = (raw_ha - 12.0) * 15.0, 180.0 - raw_dec
+            else:
+                p, s = raw_ha * 15.0, raw_dec
+            self._start_slew(_Slew("goto", self._t, p, SIDEREAL_DEG_S, s))
+            self._last_side = side
+            return 0
+
+    def _start_slew(self, slew: _Slew) -> None:
+        self._slew = slew
+        self._moves = [None, None]
+        self._pulses = [None, None]
+        self._track_error = None  # a slew moves away from whatever stopped tracking
+
+    def home(self) -> bool:
+        """``:hC#``: slew to the mechanical home; tracking goes off on arrival."""
+        with self._lock:
+            self._advance()
+            if self._persist.parked:
+                return False
+            self._start_slew(_Slew("home", self._t, HOME_P, 0.0, HOME_S))
+            return True
+
+    def park(self) -> bool:
+        """``:hP#``: slew to the (custom or factory) park position and latch the parked state."""
+        with self._lock:
+            self._advance()
+            if self._mode is not MountMode.EQUATORIAL:
+                return False
+            p, s = self._persist.custom_park or (PARK_P, PARK_S)
+            self._persist.parked = True
+            self._start_slew(_Slew("park", self._t, p, 0.0, s))
+            return True
+
+    def unpark(self) -> bool:
+        """``:Spu#``: clear the latch; False when there was none."""
+        with self._lock:
+            self._advance()
+            was = self._persist.parked
+            self._persist.parked = False
+            return was
+
+    def park_status(self) -> int:
+        """0 not parked, 1 parking, 2 parked."""
+        with self._lock:
+            self._advance()
+            if not self._persist.parked:
+                return 0
+            return 1 if self._slew is not None and self._slew.kind == "park" else 2
+
+    def set_park_position(self) -> str:
+        """``:Sp01#``: the one-character result code (field notes §4.2)."""
+        with self._lock:
+            self._advance()
+            if self._mode is not MountMode.EQUATORIAL:
+                return "4"
+            if self._moving():
+                return "9"
+            if not self._homed:
+                return "5"
+            self._persist.custom_park = (self._pos[RA], self._pos[DEC])
+            return "1"
+
+    def set_current_as_home(self) -> bool:
+        """``:SOa#``: redefine the current position as the mechanical home."""
+        with self._lock:
+            self._advance()
+            if self._moving():
+                return False
+            self._pos = [HOME_P, HOME_S]
+            self._vel = [self._vel[RA], 0.0]
+            return True
+
+    def homed(self) -> bool:
+        with self._lock:
+            return self._homed
+
+    def stop(self) -> None:
+        """``:Q#``: end GOTO/home/park slews, moves and pulses; tracking stays as it was.
+
+        The axes brake at the normal deceleration, but the slew counts as ended at once (``N``
+        back in ``:GU#``) so a client can re-target right away, as INDI does after 100 ms.
+        """
+        with self._lock:
+            self._advance()
+            self._slew = None
+            self._moves = [None, None]
+            self._pulses = [None, None]
+
+    # ---------------------------------------------------------------- manual moves, guiding
+
+    def select_speed(self, index: int) -> None:
+        """``:Rn#`` (and ``:RG/:RC/:RM/:RS``): fixed speed for both axes, latched by ``:M?#``."""
+        with self._lock:
+            self._speed = SLEW_SPEEDS[index]
+            self._axis_speed = [None, None]
+
+    def set_variable_speed(self, multiple: float, axis: int | None = None) -> None:
+        """``:Rv#`` (both axes) or ``:Rvr#``/``:Rvd#`` (one axis), in multiples of sidereal."""
+        multiple = max(0.0, min(1440.0, multiple))
+        with self._lock:
+            if axis is None:
+                self._speed = multiple
+                self._axis_speed = [None, None]
+            else:
+                self._axis_speed[axis] = multiple
+
+    def _dec_sign(self) -> float:
+        """+1 when raising the secondary angle raises Dec (west side), -1 through the pole."""
+        return 1.0 if self._side() is sky.PierSide.WEST else -1.0
+
+    def move(self, direction: str) -> bool:
+        """``:Me/:Mw/:Mn/:Ms#``: move relative to the sky at the latched speed until stopped."""
+        with self._lock:
+            self._advance()
+            if self._persist.parked or self._slew is not None:
+                return False
+            axis = RA if direction in "ew" else DEC
+            multiple = self._axis_speed[axis]
+            if multiple is None:
+                multiple = self._speed
+            rate = min(multiple, float(self._persist.max_speed)) * SIDEREAL_DEG_S
+            if direction == "e":  # RA up = HA down = primary angle down
+                self._moves[RA] = -rate
+            elif direction == "w":
+                self._moves[RA] = rate
+            else:
+                self._moves[DEC] = rate * self._dec_sign() * (1.0 if direction == "n" else -1.0)
+            return True
+
+    def stop_axis(self, direction: str) -> None:
+        """``:Qe/:Qw#`` stop the RA axis, ``:Qn/:Qs#`` the Dec axis (moves and pulses)."""
+        with self._lock:
+            self._advance()
+            axis = RA if direction in "ew" else DEC
+            self._moves[axis] = None
+            self._pulses[axis] = None
+
+    def pulse(self, direction: str, milliseconds: int) -> bool:
+        """``:Mgdnnnn#``: guide at the guide rate for ``milliseconds`` (clamped to 3000)."""
+        with self._lock:
+            self._advance()
+            if self._persist.parked or self._slew is not None:
+                return False
+            axis = RA if direction in "ew" else DEC
+            milliseconds = min(max(0, milliseconds), PULSE_MAX_MS)
+            if milliseconds == 0:
+                self._pulses[axis] = None
+                return True
+            rate = self._persist.guide_rate * SIDEREAL_DEG_S
+            if direction == "e":
+                velocity = -rate
+            elif direction == "w":
+                velocity = rate
+            else:
+                velocity = rate * self._dec_sign() * (1.0 if direction == "n" else -1.0)
+            self._pulses[axis] = _Pulse(velocity, self._t + milliseconds / 1000.0)
+            return True
+
+    def pulsing(self) -> tuple[bool, bool]:
+        """Whether an RA / Dec pulse is still running."""
+        with self._lock:
+            self._advance()
+            return self._pulses[RA] is not None, self._pulses[DEC] is not None
+
+    def set_guide_rate(self, fraction: float) -> bool:
+        if not 0.1 - 1e-9 <= fraction <= 0.9 + 1e-9:
+            return False
+        with self._lock:
+            self._persist.guide_rate = round(fraction, 2)
+            return True
+
+    def guide_rate(self) -> float:
+        with self._lock:
+            return self._persist.guide_rate
+
+    # ---------------------------------------------------------------- tracking
+
+    def set_tracking_rate(self, rate: str) -> None:
+        if rate not in _TRACK_RATES:
+            raise ValueError(f"unknown tracking rate {rate!r}")
+        with self._lock:
+            self._advance()
+            self._track_rate = rate
+
+    def set_custom_rate(self, multiple: float) -> bool:
+        """``:STRnn#``: n.n x sidereal, 0.1-1.9 (only on firmware variants that have it)."""
+        if not 0.1 - 1e-9 <= multiple <= 1.9 + 1e-9:
+            return False
+        with self._lock:
+            self._advance()
+            self._custom_multiple = multiple
+            self._track_rate = "custom"
+            return True
+
+    def tracking_rate(self) -> str:
+        with self._lock:
+            return self._track_rate
+
+    def tracking_on(self) -> bool:
+        """``:Te#``: refused while parked, past the meridian limit or below the horizon."""
+        with self._lock:
+            self._advance()
+            if self._persist.parked or self._track_error == 8:
+                return False
+            if self._raw_altitude() < 0.0:
+                self._track_error = 5
+                return False
+            self._tracking = True
+            self._track_error = None
+            self._home_flag = False
+            return True
+
+    def tracking_off(self) -> bool:
+        """``:Td#``: refused while a GOTO, home or park slew runs (ZWO v2.1)."""
+        with self._lock:
+            self._advance()
+            if self._slew is not None:
+                return False
+            self._tracking = False
+            if self._track_error != 8:
+                self._track_error = None
+            return True
+
+    def tracking_state(self) -> tuple[bool, int | None]:
+        """(on, reason code when it stopped by itself) for ``:GAT#``."""
+        with self._lock:
+            self._advance()
+            return self._tracking, None if self._tracking else self._track_error
+
+    # ---------------------------------------------------------------- sync
+
+    def sync(self) -> int:
+        """``:CM#`` to the target: 0 or an error code; a sync adds an alignment offset."""
+        with self._lock:
+            self._advance()
+            if self._slew is not None:
+                return 4
+            ra, dec = self._reported()
+            if self._at_home_position() or abs(dec) > SYNC_POLE_DEG:
+                return 11
+            ha = sky.hour_angle(self._lst(), self._target_ra)
+            if sky.pointing_state(ha) is not self._side():
+                return 9
+            if sky.angular_separation(ra, dec, self._target_ra, self._target_dec) > SYNC_MAX_DEG:
+                return 12
+            self._offset_ra = sky.wrap_hours_12(self._offset_ra + self._target_ra - ra)
+            self._offset_dec += self._target_dec - dec
+            self._alignment_points += 1
+            return 0
+
+    def clear_alignment(self) -> None:
+        with self._lock:
+            self._advance()
+            self._offset_ra = self._offset_dec = 0.0
+            self._alignment_points = 0
+
+    # ---------------------------------------------------------------- meridian, limits, speed
+
+    def set_meridian(self, settings: MeridianSettings) -> bool:
+        if not -15 <= settings.limit_degrees <= 15:
+            return False
+        with self._lock:
+            self._advance()
+            self._persist.meridian = settings
+            return True
+
+    def meridian(self) -> MeridianSettings:
+        with self._lock:
+            return self._persist.meridian
+
+    def set_limits_enabled(self, on: bool) -> None:
+        with self._lock:
+            self._persist.limits_enabled = on
+
+    def limits_enabled(self) -> bool:
+        with self._lock:
+            return self._persist.limits_enabled
+
+    def set_upper_limit(self, degrees: int) -> bool:
+        if not 60 <= degrees <= 90:
+            return False
+        with self._lock:
+            self._persist.upper_limit = degrees
+            return True
+
+    def set_lower_limit(self, degrees: int) -> bool:
+        if not 0 <= degrees <= 30:
+            return False
+        with self._lock:
+            self._persist.lower_limit = degrees
+            return True
+
+    def altitude_limits(self) -> tuple[int, int]:
+        """(lower, upper) in degrees."""
+        with self._lock:
+            return self._persist.lower_limit, self._persist.upper_limit
+
+    def set_max_speed(self, multiple: int) -> bool:
+        """``:SRl#``: heavy-duty mode caps slews and moves at 720x instead of 1440x."""
+        if multiple not in (720, 1440):
+            return False
+        with self._lock:
+            self._advance()
+            self._persist.max_speed = multiple
+            return True
+
+    def max_speed(self) -> int:
+        with self._lock:
+            return self._persist.max_speed
+
+    # ---------------------------------------------------------------- mode, buzzer, identity
+
+    def request_mode(self, mode: MountMode) -> None:
+        """``:AP#``/``:AA#``: stored now, in effect after the next power-up (as on hardware)."""
+        with self._lock:
+            self._persist.mode = mode
+
+    def mode(self) -> MountMode:
+        with self._lock:
+            return self._mode
+
+    def set_buzzer(self, level: int) -> None:
+        with self._lock:
+            self._persist.buzzer = level
+
+    def buzzer(self) -> int:
+        with self._lock:
+            return self._persist.buzzer
+
+    def ble_name(self) -> str:
+        with self._lock:
+            return f"{self.firmware.model}_{self._ble_suffix}"
+
+    def set_ble_suffix(self, suffix: str) -> bool:
+        """Stored now, advertised after the next power-up."""
+        if not (suffix.isascii() and suffix.isalnum() and 1 <= len(suffix) <= 12):
+            return False
+        with self._lock:
+            self._persist.ble_suffix = suffix
+            return True
+
+    def ble_pair(self, pairing_id: str) -> bool:
+        """``:BS#``: OK for a six-character id unless another device is already paired."""
+        if len(pairing_id) != 6 or not pairing_id.isalnum():
+            return False
+        with self._lock:
+            if self._persist.ble_paired not in (None, pairing_id):
+                return False
+            self._persist.ble_paired = pairing_id
+            return True
+
+    # ---------------------------------------------------------------- status and inspection
+
+    def status(self) -> MountStatus:
+        """The ``:GU#`` flags, firmware variant applied."""
+        with self._lock:
+            self._advance()
+            idle_home = self._at_home_position() and not self._moving()
+            flag = self.firmware.home_flag
+            at_home = idle_home and (flag == "always_at_home" or (flag == "after_home" and self._home_flag))
+            return MountStatus(
+                tracking=self._tracking,
+                slewing=self._slew is not None,
+                at_home=at_home,
+                mode=self._mode,
+            )
+
+    def slewing(self) -> bool:
+        with self._lock:
+            self._advance()
+            return self._slew is not None
+
+    def snapshot(self) -> dict[str, Any]:
+        """Everything worth inspecting, JSON-friendly, for tests and the control port."""
+        with self._lock:
+            self._advance()
+            ra, dec = self._reported()
+            raw_ha, raw_dec = self._raw_ha_dec()
+            lst = self._lst()
+            alt, az = sky.equatorial_to_horizontal(sky.hour_angle(lst, ra), dec, self._latitude)
+            persist = self._persist
+            return {
+                "emulated_seconds": self._t,
+                "true_utc": self._clock.now().isoformat(),
+                "mount_local": self._local_now().isoformat(),
+                "mount_utc": self._mount_utc().isoformat(),
+                "utc_offset_h": self._utc_offset,
+                "dst": self._dst,
+                "initialized": self._initialized(),
+                "latitude": self._latitude,
+                "longitude_east": self._longitude,
+                "lst_h": lst,
+                "ra_h": ra,
+                "dec_deg": dec,
+                "alt_deg": alt,
+                "az_deg": az,
+                "raw_ha_h": raw_ha,
+                "raw_dec_deg": raw_dec,
+                "primary_deg": self._pos[RA],
+                "secondary_deg": self._pos[DEC],
+                "velocity_deg_s": list(self._vel),
+                "pier": self.pier_letter(),
+                "at_home": self._at_home_position(),
+                "homed": self._homed,
+                "slew": None if self._slew is None else self._slew.kind,
+                "moves_deg_s": list(self._moves),
+                "pulses": [None if p is None else {"deg_s": p.velocity, "end_s": p.end} for p in self._pulses],
+                "tracking": self._tracking,
+                "tracking_rate": self._track_rate,
+                "tracking_error": self._track_error,
+                "target_ra_h": self._target_ra,
+                "target_dec_deg": self._target_dec,
+                "offset_ra_h": self._offset_ra,
+                "offset_dec_deg": self._offset_dec,
+                "alignment_points": self._alignment_points,
+                "mode": self._mode.name,
+                "parked": persist.parked,
+                "park_status": 0 if not persist.parked else (1 if self._slew and self._slew.kind == "park" else 2),
+                "limits_enabled": persist.limits_enabled,
+                "limits": [persist.lower_limit, persist.upper_limit],
+                "max_speed": persist.max_speed,
+                "guide_rate": persist.guide_rate,
+                "meridian": {
+                    "flip": persist.meridian.flip,
+                    "track_after": persist.meridian.track_after,
+                    "limit_degrees": persist.meridian.limit_degrees,
+                },
+                "pending_mode": persist.mode.name,
+                "power_ups": self.power_ups,
+                "firmware": self.firmware.as_dict(),
+            }
