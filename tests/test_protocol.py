@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from datetime import date, time
 
 import pytest
@@ -45,7 +46,8 @@ def test_reply_kinds_follow_real_mounts(code: str, kind: p.ReplyKind) -> None:
 @pytest.mark.parametrize(
     ("hours", "text"),
     [(0.0, "00:00:00"), (12.5, "12:30:00"), (23 + 59 / 60 + 59.7 / 3600, "00:00:00"),
-     (1 + 59 / 60 + 59.5 / 3600, "02:00:00"), (5 + 0.49 / 3600, "05:00:00"), (-0.5 / 60, "23:59:30"), (24.0, "00:00:00")],
+     (1 + 59 / 60 + 59.5 / 3600, "02:00:00"), (5 + 0.49 / 3600, "05:00:00"), (-0.5 / 60, "23:59:30"),
+     (24.0, "00:00:00")],
 )
 def test_format_hms_carries_and_wraps(hours: float, text: str) -> None:
     assert p.format_hms(hours) == text
@@ -244,10 +246,8 @@ REPLY_ALPHABET = st.text(alphabet=st.characters(min_codepoint=0, max_codepoint=2
 @settings(max_examples=300)
 @given(REPLY_ALPHABET, st.sampled_from([c for c in p.COMMANDS if c.args is None]))
 def test_any_reply_text_raises_only_our_errors(reply: str, command: p.Command) -> None:
-    try:
+    with contextlib.suppress(ProtocolError, MountReplyError):
         p.Request(command, f":{command.code}#").parse(reply)
-    except (ProtocolError, MountReplyError):
-        pass
 
 
 @settings(max_examples=300)
@@ -265,7 +265,5 @@ def test_framer_never_raises_and_yields_bounded_bodies(data: bytes) -> None:
 def test_value_parsers_raise_only_protocol_errors(text: str) -> None:
     for parser in (p.parse_hms, p.parse_dms, p.parse_longitude, p.parse_date, p.parse_time, p.parse_utc_offset,
                    p.parse_status, p.parse_meridian):
-        try:
+        with contextlib.suppress(ProtocolError):
             parser(text)
-        except ProtocolError:
-            pass
