@@ -134,7 +134,11 @@ class AlpacaZwoServer:
             from .alpaca.advertise import MdnsAdvertiser
 
             self.advertiser = MdnsAdvertiser(self.http.port, f"alpaca-zwo on port {self.http.port}")
-            self.advertiser.start()
+            try:
+                self.advertiser.start()
+            except OSError as exc:  # no multicast route: the API works without the advertisement
+                log.error("mDNS advertisement failed: %s", exc)
+                self.advertiser = None
 
     def _site(self) -> tuple[float, float]:
         site = self.settings.site

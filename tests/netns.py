@@ -230,13 +230,9 @@ class Namespace:
     def argv(self, *command: str) -> list[str]:
         return ["ip", "netns", "exec", self.name, *command]
 
-    def run(
-        self, *command: str, timeout: float = 30.0, check: bool = True
-    ) -> subprocess.CompletedProcess[str]:
+    def run(self, *command: str, timeout: float = 30.0, check: bool = True) -> subprocess.CompletedProcess[str]:
         """Run a command in the namespace and wait for it (killed when the timeout passes)."""
-        proc = subprocess.run(
-            self.argv(*command), capture_output=True, text=True, timeout=timeout, env=_child_env()
-        )
+        proc = subprocess.run(self.argv(*command), capture_output=True, text=True, timeout=timeout, env=_child_env())
         if check and proc.returncode != 0:
             raise RuntimeError(
                 f"{command[:3]} in {self.name} failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"

@@ -1,0 +1,30 @@
+"""A physically faithful emulator of ZWO AM3/AM5/AM5N/AM7 mounts.
+
+``MountModel`` is the mount (two axes, its own clock and site, tracking, GOTO, guiding, limits,
+firmware variants); ``Responder`` speaks its wire protocol; ``EmulatorServer`` serves it over TCP
+and a pseudo-terminal with baud-rate pacing; ``Faults`` makes the line misbehave on demand.
+
+    model = MountModel(ManualClock(), FirmwareVariant(home_flag="never"))
+    with EmulatorServer(model, port=0, baud=0) as server:
+        ...  # connect to 127.0.0.1:server.port
+"""
+
+from __future__ import annotations
+
+from .clock import ManualClock, ScaledClock
+from .control import ControlServer
+from .faults import Faults
+from .model import FirmwareVariant, MountModel
+from .responder import Responder
+from .server import EmulatorServer
+
+__all__ = [
+    "ControlServer",
+    "EmulatorServer",
+    "Faults",
+    "FirmwareVariant",
+    "ManualClock",
+    "MountModel",
+    "Responder",
+    "ScaledClock",
+]

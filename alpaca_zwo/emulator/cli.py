@@ -1,0 +1,146 @@
+"""``alpaca-zwo-emulator``: run an emulated ZWO AM mount on TCP (and a pty) until stopped.
+
+The first lines on stdout say where it listens, one per endpoint, so a script that passed
+``--port 0`` can read the port back::
+
+    tcp 127.0.0.1:40123
+    pty /dev/pts/7
+    control 127.0.0.1:40124
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+from collections.abc import Sequence
+from datetime import datetime, timezone
+from types import FrameType
+
+from .clock import ScaledClock
+from .control import ControlServer
+from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, FirmwareVariant, MountModel
+from .server import EmulatorServer
+
+__all__ = ["build_parser", "main"]
+
+
+def _iso_utc(text: str) -> datetime:
+    try:
+        value = datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"not an ISO 8601 time: {text!r}") from exc
+    return value.replace(tzinfo=timezone.utc) if value.tzinfo is None else value.astimezone(timezone.utc)
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0.0:
+        raise argparse.ArgumentTypeError("must be > 0")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="alpaca-zwo-emulator",
+        description="Emulate a ZWO AM3/AM5/AM5N/AM7 mount on TCP (like its WiFi port) and a pty (like USB).",
+    )
+    net = parser.add_argument_group("endpoints")
+    net.add_argument("--host", default="127.0.0.1", help="TCP address to listen on (default 127.0.0.1)")
+    net.add_argument("--port", type=int, default=4030, help="TCP port (default 4030; 0 picks a free one)")
+    net.add_argument("--pty", action="store_true", help="also serve a pseudo-terminal and print its path")
+    net.add_argument("--pty-link", metavar="PATH", help="keep a symlink at PATH pointing at the current pty")
+    net.add_argument("--baud", type=int, default=9600, help="line rate to pace bytes at (default 9600; 0 = unpaced)")
+    net.add_argument("--control-port", type=int, metavar="N",
+                     help="loopback control channel for faults and inspection (0 picks a free port)")
+
+    sky = parser.add_argument_group("emulated universe")
+    sky.add_argument("--speed", type=_positive, default=1.0, help="run the clock F times faster than real time")
+    sky.add_argument("--start-time", type=_iso_utc, metavar="ISO8601", help="true UTC at start (default now)")
+    sky.add_argument("--latitude", type=float, default=FACTORY_LATITUDE,
+                     help="site stored in the mount, degrees north (default: the factory Suzhou site)")
+    sky.add_argument("--longitude", type=float, default=FACTORY_LONGITUDE,
+                     help="site stored in the mount, degrees EAST positive (default: the factory site)")
+    sky.add_argument("--initialized", action="store_true",
+                     help="start as if a client had already set date, time (UTC) and site")
+
+    fw = parser.add_argument_group("firmware variant")
+    defaults = FirmwareVariant()
+    fw.add_argument("--model", choices=("AM5", "AM3", "AM5N", "AM7"), default=defaults.model)
+    fw.add_argument("--firmware", default=defaults.version, metavar="X.Y.Z", help="version reported by :GV#")
+    fw.add_argument("--home-flag", choices=("after_home", "never", "always_at_home"), default=defaults.home_flag,
+                    help="when :GU# shows H")
+    fw.add_argument("--gt-mapping", choices=("english", "chinese"), default=defaults.gt_mapping,
+                    help=":GT# digits: english 1=solar 2=lunar, chinese 1=lunar 2=solar")
+    fw.add_argument("--gps-reply", choices=("digits", "empty"), default=defaults.gps_reply,
+                    help=":Gps# answers 0/1/2 or an empty #")
+    fw.add_argument("--hp-reply", choices=("none", "1#"), default="none", help=":hP# answers nothing or 1#/0#")
+    fw.add_argument("--gh-reply", choices=("empty", "zero", "homed"), default=defaults.gh_reply,
+                    help=":Gh# answers #, 0#, or 1#/0# by whether a home completed")
+    fw.add_argument("--compound-goto-sync", action="store_true",
+                    help=":SMeq/:SMMC work as documented (real firmware answers e2#)")
+    fw.add_argument("--custom-tracking", action="store_true", help=":STRnn# custom rate works (real: no reply)")
+    fw.add_argument("--gmza-south-azimuth", action="store_true", help=":GMZA# azimuth measured from south")
+
+    parser.add_argument("--log-level", default="WARNING", help="DEBUG, INFO, WARNING (default) or ERROR")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    firmware = FirmwareVariant(
+        model=args.model,
+        version=args.firmware,
+        home_flag=args.home_flag,
+        gt_mapping=args.gt_mapping,
+        gps_reply=args.gps_reply,
+        hp_reply=None if args.hp_reply == "none" else args.hp_reply,
+        gh_reply=args.gh_reply,
+        compound_goto_sync=args.compound_goto_sync,
+        custom_tracking=args.custom_tracking,
+        gmza_south_azimuth=args.gmza_south_azimuth,
+    )
+    clock = ScaledClock(speed=args.speed, start_utc=args.start_time)
+    model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized)
+    server = EmulatorServer(model, host=args.host, port=args.port, baud=args.baud, pty=args.pty,
+                            pty_link=args.pty_link)
+    try:
+        server.start()
+    except OSError as exc:
+        print(f"alpaca-zwo-emulator: cannot listen on {args.host}:{args.port}: {exc}", file=sys.stderr)
+        return 2
+    control: ControlServer | None = None
+    if args.control_port is not None:
+        control = ControlServer(server, port=args.control_port).start()
+
+    print(f"alpaca-zwo-emulator: {firmware.model} firmware {firmware.version}, baud {server.baud}, "
+          f"speed {clock.speed:g}x, start {clock.now().isoformat(timespec='seconds')}")
+    print(f"tcp {args.host}:{server.port}")
+    if server.pty_path:
+        print(f"pty {server.pty_path}")
+    if control is not None:
+        print(f"control 127.0.0.1:{control.port}")
+    sys.stdout.flush()
+
+    stop = threading.Event()
+
+    def _on_signal(_signum: int, _frame: FrameType | None) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, _on_signal)
+    signal.signal(signal.SIGINT, _on_signal)
+    try:
+        while not stop.wait(0.5):
+            pass
+    finally:
+        if control is not None:
+            control.stop()
+        server.stop()
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
