@@ -41,7 +41,7 @@ from urllib.parse import urlsplit
 import falcon
 
 from . import __version__, sky
-from ._exceptions import AlpacaError, AlpacaZwoError, ConfigError, InvalidValue, LinkError, MountReplyError, ProtocolError
+from ._exceptions import AlpacaError, ConfigError, InvalidValue, LinkError, MountReplyError, ProtocolError
 from .clients import ClientKey, current_client
 from .config import Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .mount import SIDEREAL_DEG_S, MountSettings
@@ -63,6 +63,7 @@ TRACE_LIMIT = 500
 TRACKING_RATE_NAMES = {0: "sidereal", 1: "lunar", 2: "solar"}
 #: Manual-move speeds the page offers, as multiples of sidereal (the mount's :R0..:R9 set minus 0.25x).
 JOG_MULTIPLES = (0.5, 1.0, 2.0, 4.0, 8.0, 20.0, 60.0, 720.0, 1440.0)
+SIDEREAL_HOURS_TO_SOLAR = 86164.0905 / 86400.0
 
 _CONTENT_TYPES = {
     ".html": "text/html; charset=utf-8",
@@ -497,12 +498,13 @@ class Api:
         else:
             limits = self.server.settings.limits
             track_after, limit = limits.meridian_track_past, limits.meridian_limit_deg
-        effective = limit if track_after else min(limit, 0.0)
+        # The line the Telescope predicts flips with (DestinationSideOfPier): the meridian itself
+        # unless the mount may track past it.
+        effective = limit if track_after else 0.0
         minutes = None
         if counting_down and ha is not None:
-            # Tracking west of the pier moves HA toward the limit at one sidereal hour per 0.9973 h.
-            minutes = (effective / 15.0 - ha) * 60.0 * (sky_day_ratio := 86164.0905 / 86400.0)
-            del sky_day_ratio
+            # HA grows one sidereal hour per 0.99727 solar hours while tracking.
+            minutes = (effective / 15.0 - ha) * 60.0 * SIDEREAL_HOURS_TO_SOLAR
         return {"track_after": track_after, "limit_deg": effective, "minutes_to_limit": _finite(minutes, 1)}
 
     def _clients(self, connected: frozenset[ClientKey]) -> list[dict[str, Any]]:
@@ -615,6 +617,7 @@ class Api:
                 raise ApiError(400, f"{name} must be an object")
         site = groups.pop("site", None)
         device = groups.pop("device", None)
+        site_values = _site_values(site) if site else {}
 
         def change(current: Settings) -> Settings:
             data = settings_to_dict(current)
@@ -630,22 +633,13 @@ class Api:
                 self.server.store.update(change)
             except (TypeError, ValueError) as exc:
                 raise ApiError(400, f"invalid setting: {exc}") from None
-        if site:
-            self._update_site(telescope, site)
-
-    @staticmethod
-    def _update_site(telescope: Telescope, site: dict[str, Any]) -> None:
-        """Through the Telescope, so the mount gets the new site at once and clients read the same values."""
-        ranges = {"latitude": (-90.0, 90.0), "longitude": (-180.0, 180.0), "elevation": (-300.0, 10000.0)}
-        unknown = set(site) - set(ranges)
-        if unknown:
-            raise ApiError(400, f"unknown site key(s): {', '.join(sorted(unknown))}")
-        values = {key: _number(site, key, *ranges[key]) for key in ranges if key in site}
-        setters: dict[str, Callable[[float], None]] = {
-            "latitude": telescope.set_site_latitude, "longitude": telescope.set_site_longitude,
-            "elevation": telescope.set_site_elevation}
-        for key, value in values.items():
-            setters[key](value)
+        if site_values:
+            # Through the Telescope, so the mount gets the new site at once and clients read the same values.
+            setters: dict[str, Callable[[float], None]] = {
+                "latitude": telescope.set_site_latitude, "longitude": telescope.set_site_longitude,
+                "elevation": telescope.set_site_elevation}
+            for key, value in site_values.items():
+                setters[key](value)
 
     def _update_mount(self, telescope: Telescope, groups: dict[str, Any]) -> None:
         mount = telescope.mount
@@ -710,6 +704,15 @@ class Api:
         log.info("setup page: server settings changed (%s); they apply after a restart", ", ".join(sorted(body)))
 
 
+def _site_values(site: dict[str, Any]) -> dict[str, float]:
+    """Checked before anything is saved, so a bad longitude cannot leave a new latitude half-applied."""
+    ranges = {"latitude": (-90.0, 90.0), "longitude": (-180.0, 180.0), "elevation": (-300.0, 10000.0)}
+    unknown = set(site) - set(ranges)
+    if unknown:
+        raise ApiError(400, f"unknown site key(s): {', '.join(sorted(unknown))}")
+    return {key: _number(site, key, *ranges[key]) for key in ranges if key in site}
+
+
 def _quiet(getter: Callable[[], Any], default: Any) -> Any:
     """A Telescope property for display: its ASCOM refusal (not connected, no position yet) shows as blank."""
     try:
@@ -746,7 +749,6 @@ class _Resource:
         self.api = api
 
     def body(self, req: falcon.Request) -> dict[str, Any]:
-        check_same_origin(req)
         return _read_json(req, self.api.server.settings.server.max_body_bytes)
 
 
@@ -757,9 +759,9 @@ class ServerResource(_Resource):
         _send(resp, self.api.server_view())
 
     def on_post(self, req: falcon.Request, resp: falcon.Response) -> None:
-        body = self.body(req)
+        check_same_origin(req)
         with _api_errors(resp):
-            self.api.change_server(body)
+            self.api.change_server(self.body(req))
             _send(resp, {**self.api.server_view(), "restart_required": True})
 
 
@@ -783,8 +785,9 @@ class SettingsResource(_Resource):
             _send(resp, self.api.settings_view(index, telescope, mount))
 
     def on_post(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
-        body = self.body(req)
+        check_same_origin(req)
         with _api_errors(resp):
+            body = self.body(req)
             index, telescope = self.api.telescope(number)
             self.api.touch(req)
             mount = self.api.change_settings(index, telescope, body)
@@ -796,9 +799,10 @@ class ActionResource(_Resource):
     """``POST /setup/api/telescope/{number}/action/{name}``: the page's controls, run as the page's client."""
 
     def on_post(self, req: falcon.Request, resp: falcon.Response, number: str, name: str) -> None:
-        body = self.body(req)
+        check_same_origin(req)
         with _api_errors(resp):
-            index, telescope = self.api.telescope(number)
+            body = self.body(req)
+            _, telescope = self.api.telescope(number)
             handler = ACTIONS.get(name)
             if handler is None:
                 raise ApiError(404, f"unknown action {name!r}; actions: {', '.join(sorted(ACTIONS))}")
@@ -979,6 +983,3 @@ def setup_routes(server: AlpacaZwoServer, static_root: Path | None = None) -> li
 
 
 __all__ = ["CSRF_HEADER", "LogBuffer", "StaticFiles", "check_same_origin", "log_buffer", "setup_routes", "static_dir"]
-
-# A clean import-time check that the error types the API maps are the ones the package raises.
-assert issubclass(AlpacaError, AlpacaZwoError)

@@ -115,7 +115,9 @@ class DeviceApi:
         for key, param, parse in endpoint.fields:
             text = fields.get(key)
             if text is None:
-                raise missing(param, fields, case_sensitive=req.method == "PUT")
+                text = param.default
+                if text is None:
+                    raise missing(param, fields, case_sensitive=req.method == "PUT")
             args.append(parse(param.name, text))
 
         client = self._client_key(req.remote_addr, client_id)

@@ -12,7 +12,7 @@ import threading
 from typing import Any
 
 from waitress import wasyncore
-from waitress.server import create_server
+from waitress.server import BaseWSGIServer, create_server
 from waitress.trigger import trigger
 
 log = logging.getLogger("alpaca_zwo.alpaca.http")
@@ -39,6 +39,8 @@ class HttpServer:
         if max_request_body_size is not None:
             options["max_request_body_size"] = max_request_body_size
         self._server = create_server(app, map=self._map, **options)
+        # One wake-up pipe per listener (a host name may resolve to several); any reaches the loop.
+        self._triggers: list[trigger] = [d for d in self._map.values() if isinstance(d, trigger)]
         self._thread: threading.Thread | None = None
         self._closed = False
         self.host = host
@@ -66,24 +68,31 @@ class HttpServer:
         self._closed = True
         thread = self._thread
         if thread is not None and thread.is_alive():
-            # Sockets belong to the loop thread; ask it to close them rather than racing its select().
-            self._trigger().pull_trigger(self._close_sockets)
+            # Sockets belong to the loop thread: it closes them itself, and an empty map ends its loop.
+            self._triggers[0].pull_trigger(self._close_connections)
             thread.join(timeout)
             if thread.is_alive():
                 log.warning("HTTP server loop did not stop within %.1f s", timeout)
         else:
-            self._close_sockets()
+            self._close_connections()
         self._server.task_dispatcher.shutdown(timeout=timeout)
+        # The trigger pipes outlive the workers: they pull them after each request, and a pipe closed
+        # under them fails (or, once its number is reused, writes into someone else's descriptor).
+        # Closing it from the loop thread would also race pull_trigger(), which queues the thunk
+        # before it writes the wake-up byte.
+        for wake in self._triggers:
+            wake.close()
 
-    def _close_sockets(self) -> None:
-        # An empty map ends waitress's loop after the current poll.
-        wasyncore.close_all(self._map, ignore_all=True)
-
-    def _trigger(self) -> trigger:
+    def _close_connections(self) -> None:
         for dispatcher in list(self._map.values()):
             if isinstance(dispatcher, trigger):
-                return dispatcher
-        raise RuntimeError("waitress trigger not found")
+                dispatcher.del_channel()  # out of the loop, but still open for the workers
+            elif isinstance(dispatcher, BaseWSGIServer):
+                # The listening socket only: BaseWSGIServer.close() would close the trigger too.
+                wasyncore.dispatcher.close(dispatcher)
+            else:
+                dispatcher.close()
+        self._map.clear()
 
     def __enter__(self) -> HttpServer:
         self.start()

@@ -57,6 +57,8 @@ class Param:
 
     name: str
     type: ValueType
+    #: Used when the parameter is absent; only for Action's Parameters, which alpyca omits when empty.
+    default: str | None = None
     kwarg: str = field(init=False)
 
     def __post_init__(self) -> None:
@@ -117,7 +119,7 @@ _AXIS = Param("Axis", _I)
 _COMMAND = (Param("Command", _S), Param("Raw", _B))
 
 COMMON_MEMBERS: tuple[Member, ...] = (
-    *_do("Action", "Invoke a device-specific action", Param("Action", _S), Param("Parameters", _S),
+    *_do("Action", "Invoke a device-specific action", Param("Action", _S), Param("Parameters", _S, ""),
          returns=_S, common=True),
     *_do("CommandBlind", "Send a raw command, no reply", *_COMMAND, common=True),
     *_do("CommandBool", "Send a raw command, boolean reply", *_COMMAND, returns=_B, common=True),
@@ -227,7 +229,8 @@ def reference_markdown(device_type: str = "telescope") -> str:
     lines = ["| Verb | Path | Parameters | Returns | Handler | Summary |",
              "| --- | --- | --- | --- | --- | --- |"]
     for m in sorted(DEVICE_MEMBERS[device_type], key=lambda m: (m.path, m.verb)):
-        params = ", ".join(f"{p.name}: {p.type.value}" for p in m.params)
+        params = ", ".join(f"{p.name}: {p.type.value}" + (" (optional)" if p.default is not None else "")
+                           for p in m.params)
         returns = m.returns.value if m.returns else ""
         args = "value" if m.setter else ", ".join(f"{p.kwarg}=" for p in m.params)
         lines.append(f"| {m.verb} | `/api/v1/{device_type}/{{n}}/{m.path}` | {params} | {returns} "

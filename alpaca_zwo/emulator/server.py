@@ -25,8 +25,8 @@ import time
 import tty
 from typing import Any
 
-from ..protocol import RequestFramer
 from .faults import FaultEvent, Faults
+from .framing import MountFramer
 from .model import MountModel
 from .responder import Responder
 
@@ -63,7 +63,7 @@ class _Line:
         self.server = server
         self.id = line_id
         self.peer = peer
-        self.framer = RequestFramer()
+        self.framer = MountFramer()
         self.closed = threading.Event()
         self._replies: queue.Queue[bytes | None] = queue.Queue()
         self._rx_free = 0.0  # when the incoming wire is free again
@@ -150,6 +150,8 @@ class _Line:
 
     def _process(self, body: str) -> None:
         reply = self.server.responder.handle(body)
+        if _log.isEnabledFor(logging.DEBUG):
+            _log.debug("line %s :%s# -> %r", self.id, body, reply)
         with self._counter_lock:
             self.exchanges += 1
             if reply is not None:
@@ -372,11 +374,14 @@ class EmulatorServer:
         self.faults.remove_listener(self._on_fault)
         if self._listener is not None:
             with contextlib.suppress(OSError):
-                self._listener.close()
+                self._listener.shutdown(socket.SHUT_RDWR)  # wakes a blocked accept() at once on Linux
         self._close_lines(include_pty=True)
         for thread in self._threads:
             thread.join(2.0)
         self._threads.clear()
+        if self._listener is not None:
+            self._listener.close()
+            self._listener = None
         with self._lock:
             lines = list(self._lines.values())
         for line in lines:

@@ -268,7 +268,7 @@ def test_put_with_parameters(alpaca: Alpaca, m: Member) -> None:
     called = len(device.called(m.handler))
     assert called == 2
     # A case-inverted form name is a missing parameter: 400, and the member must not run.
-    for name in values:
+    for name in (p.name for p in m.params if p.default is None):
         fields = {**OK_IDS, **values}
         fields[invert_case(name)] = fields.pop(name)
         assert "case-sensitive" in assert_text(send(alpaca, m, fields))
@@ -298,6 +298,13 @@ def test_put_missing_parameter(alpaca: Alpaca, m: Member) -> None:
 def test_string_parameters_may_be_empty(alpaca: Alpaca) -> None:
     body = assert_json(alpaca.put("action", {**OK_IDS, "Action": "echo", "Parameters": ""}), ctid=CTID)
     assert body["Value"] == ""
+
+
+def test_action_parameters_default_to_empty(alpaca: Alpaca) -> None:
+    # alpyca's Action(name) sends no Parameters field at all.
+    assert assert_json(alpaca.put("action", {**OK_IDS, "Action": "echo"}), ctid=CTID)["Value"] == ""
+    assert alpaca.device.calls[-1].kwargs == {"action": "echo", "parameters": ""}
+    assert_text(alpaca.put("action", {**OK_IDS, "Parameters": "x"}))
 
 
 def test_put_arguments_reach_the_handler_typed(alpaca: Alpaca) -> None:

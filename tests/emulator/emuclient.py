@@ -78,7 +78,12 @@ class MountClient:
 
         Also guarantees the request has been handled when it returns.
         """
-        self.write(request)
+        raw = request if isinstance(request, bytes) else request.encode("latin-1")
+        self.write(raw)
+        if SENTINEL.encode() in raw:  # asking :GVT# itself: delimit with :GMGE#, the one '&' reply here
+            self.write(":GMGE#")
+            data = self.read_until(lambda d: b"&" in d and d.endswith(b"#"))
+            return data[: data.rindex(b"#", 0, len(data) - 1) + 1].decode("latin-1")
         self.write(SENTINEL)
         data = self.read_until(lambda d: d.endswith(SENTINEL_REPLY))
         return data[: -len(SENTINEL_REPLY)].decode("latin-1")

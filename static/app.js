@@ -1,0 +1,791 @@
+/* alpaca-zwo setup page: polls /setup/api/.../status once a second and drives the controls.
+ *
+ * Plain JavaScript with no external assets: the page is used in a field with no internet.
+ * Every state-changing request is a same-origin POST with a JSON body and the X-Alpaca-Zwo
+ * header, which the server requires so that other web sites cannot move the telescope.
+ */
+"use strict";
+
+(function () {
+  const SVG = "http://www.w3.org/2000/svg";
+  const POLL_MS = 1000;
+  const TRAIL_POINTS = 240;
+
+  const match = /^\/setup\/v1\/telescope\/(\d+)\/setup\/?$/.exec(location.pathname);
+  const device = match ? Number(match[1]) : 0;
+  const base = "/setup/api/telescope/" + device;
+
+  const $ = (id) => document.getElementById(id);
+  const state = {
+    status: null,
+    server: null,
+    connected: false,
+    trail: [],
+    pollFailures: 0,
+    logAfter: 0,
+    traceAfter: 0,
+    floorKey: "",
+    flipKey: "",
+    limitKey: "",
+    jogging: null,
+  };
+
+  // ---------------------------------------------------------------- requests
+
+  async function request(path, options) {
+    let response;
+    try {
+      response = await fetch(path, Object.assign({ cache: "no-store", credentials: "same-origin" }, options));
+    } catch (err) {
+      throw new Error("the server cannot be reached (" + err.message + ")");
+    }
+    const type = response.headers.get("Content-Type") || "";
+    const body = type.includes("application/json") ? await response.json() : await response.text();
+    if (!response.ok) {
+      const text = typeof body === "string" ? body.trim() : body.error;
+      throw new Error(text || "HTTP " + response.status);
+    }
+    return body;
+  }
+
+  function post(path, body) {
+    return request(path, {
+      method: "POST",
+      headers: { "Content-Type": "application/json", "X-Alpaca-Zwo": "1" },
+      body: JSON.stringify(body || {}),
+    });
+  }
+
+  function action(name, body) {
+    return post(base + "/action/" + name, body);
+  }
+
+  // ---------------------------------------------------------------- messages
+
+  function message(text, kind) {
+    const box = document.createElement("div");
+    box.className = "msg " + (kind || "error");
+    const span = document.createElement("span");
+    span.textContent = text;
+    const close = document.createElement("button");
+    close.type = "button";
+    close.textContent = "\u00d7";
+    close.title = "Dismiss";
+    close.addEventListener("click", () => box.remove());
+    box.append(span, close);
+    const area = $("messages");
+    area.append(box);
+    while (area.children.length > 4) area.firstChild.remove();
+    if (kind === "info") setTimeout(() => box.remove(), 3500);
+  }
+
+  // Run a control; show its error, refresh the status at once so the effect is visible.
+  async function run(label, fn, quietOk) {
+    try {
+      const result = await fn();
+      if (!quietOk) message(label, "info");
+      poll(true);
+      return result;
+    } catch (err) {
+      message(label.replace(/\.$/, "") + " failed: " + err.message, "error");
+      return null;
+    }
+  }
+
+  // ---------------------------------------------------------------- formatting
+
+  function pad(n, width) {
+    return String(n).padStart(width, "0");
+  }
+
+  function sexagesimal(value, unitsPerCircle, decimals) {
+    const sign = value < 0 ? "-" : "+";
+    let rest = Math.abs(value);
+    let whole = Math.floor(rest);
+    rest = (rest - whole) * 60;
+    let minutes = Math.floor(rest);
+    let seconds = (rest - minutes) * 60;
+    const factor = Math.pow(10, decimals);
+    seconds = Math.round(seconds * factor) / factor;
+    if (seconds >= 60) { seconds -= 60; minutes += 1; }
+    if (minutes >= 60) { minutes -= 60; whole += 1; }
+    if (unitsPerCircle && whole >= unitsPerCircle) whole -= unitsPerCircle;
+    const secText = decimals ? seconds.toFixed(decimals).padStart(3 + decimals, "0") : pad(seconds, 2);
+    return { sign, whole, minutes: pad(minutes, 2), seconds: secText };
+  }
+
+  function fmtHours(h) {
+    if (h === null || h === undefined) return "\u2013";
+    const p = sexagesimal(((h % 24) + 24) % 24, 24, 1);
+    return pad(p.whole, 2) + "h " + p.minutes + "m " + p.seconds + "s";
+  }
+
+  function fmtHa(h) {
+    if (h === null || h === undefined) return "\u2013";
+    const p = sexagesimal(h, 0, 0);
+    return (p.sign === "-" ? "\u2212" : "+") + p.whole + "h " + p.minutes + "m " + p.seconds + "s";
+  }
+
+  function fmtDeg(d) {
+    if (d === null || d === undefined) return "\u2013";
+    const p = sexagesimal(d, 0, 0);
+    return (p.sign === "-" ? "\u2212" : "+") + pad(p.whole, 2) + "\u00b0 " + p.minutes + "\u2032 " + p.seconds + "\u2033";
+  }
+
+  function fmtAngle(d) {
+    return d === null || d === undefined ? "\u2013" : d.toFixed(2) + "\u00b0";
+  }
+
+  function fmtDuration(seconds) {
+    if (seconds === null || seconds === undefined) return "\u2013";
+    const s = Math.abs(seconds);
+    if (s < 1) return (seconds * 1000).toFixed(0) + " ms";
+    if (s < 90) return seconds.toFixed(1) + " s";
+    if (s < 5400) return (seconds / 60).toFixed(0) + " min";
+    return (seconds / 3600).toFixed(1) + " h";
+  }
+
+  function fmtMinutes(m) {
+    const sign = m < 0 ? "\u2212" : "";
+    const a = Math.abs(m);
+    return sign + Math.floor(a / 60) + "h " + pad(Math.floor(a % 60), 2) + "m";
+  }
+
+  function setText(id, text, cls) {
+    const el = $(id);
+    if (el.textContent !== text) el.textContent = text;
+    const wanted = cls || "";
+    if (el.className !== wanted) el.className = wanted;
+  }
+
+  function yesNo(value, yesClass) {
+    return value ? ["yes", yesClass || "yes"] : ["no", ""];
+  }
+
+  // ---------------------------------------------------------------- sky plot
+
+  const R = 100; // radius of the horizon (altitude 0)
+  const MIN_ALT = -10; // the plot shows a little below the horizon
+
+  function project(az, alt) {
+    const a = Math.max(alt, MIN_ALT);
+    const r = ((90 - a) / 90) * R;
+    const t = (az * Math.PI) / 180;
+    return [-r * Math.sin(t), -r * Math.cos(t)];
+  }
+
+  function el(tag, attrs, parent) {
+    const node = document.createElementNS(SVG, tag);
+    for (const [k, v] of Object.entries(attrs || {})) node.setAttribute(k, v);
+    if (parent) parent.append(node);
+    return node;
+  }
+
+  const sky = {};
+
+  function buildSky() {
+    const svg = $("sky");
+    const outer = ((90 - MIN_ALT) / 90) * R;
+    el("circle", { cx: 0, cy: 0, r: outer, class: "sky-bg" }, svg);
+    sky.ground = el("path", { class: "sky-ground", d: "" }, svg);
+    for (const alt of [30, 60]) {
+      el("circle", { cx: 0, cy: 0, r: ((90 - alt) / 90) * R, class: "sky-ring" }, svg);
+      const [, y] = project(180, alt);
+      const label = el("text", { x: 3, y: y - 2, class: "sky-small" }, svg);
+      label.textContent = alt + "\u00b0";
+    }
+    el("circle", { cx: 0, cy: 0, r: R, class: "sky-horizon" }, svg);
+    sky.floor = el("path", { class: "sky-floor", d: "" }, svg);
+    sky.mlimits = el("g", {}, svg);
+    el("line", { x1: 0, y1: -R, x2: 0, y2: R, class: "sky-meridian" }, svg);
+    sky.flip = el("polyline", { class: "sky-flip", points: "" }, svg);
+    el("path", { d: "M -3 0 H 3 M 0 -3 V 3", class: "sky-pole" }, svg); // zenith
+    sky.pole = el("g", { id: "sky-pole" }, svg);
+    el("circle", { cx: 0, cy: 0, r: 2.5, class: "sky-pole" }, sky.pole);
+    const poleLabel = el("text", { x: 0, y: -5, class: "sky-small" }, sky.pole);
+    poleLabel.textContent = "pole";
+    const labels = [["N", 0], ["E", 90], ["S", 180], ["W", 270]];
+    for (const [name, az] of labels) {
+      const t = (az * Math.PI) / 180;
+      const r = outer + 8;
+      const text = el("text", { x: -r * Math.sin(t), y: -r * Math.cos(t), class: "sky-label" + (name === "N" ? " north" : "") }, svg);
+      text.textContent = name;
+    }
+    sky.trail = el("polyline", { class: "sky-trail", points: "" }, svg);
+    sky.path = el("line", { class: "sky-path hidden", x1: 0, y1: 0, x2: 0, y2: 0 }, svg);
+    sky.target = el("circle", { id: "sky-target", class: "sky-target hidden", cx: 0, cy: 0, r: 6 }, svg);
+    sky.scope = el("g", { id: "sky-scope", class: "sky-scope hidden" }, svg);
+    el("circle", { cx: 0, cy: 0, r: 5.5 }, sky.scope);
+    el("line", { x1: -10, y1: 0, x2: -6, y2: 0 }, sky.scope);
+    el("line", { x1: 6, y1: 0, x2: 10, y2: 0 }, sky.scope);
+    el("line", { x1: 0, y1: -10, x2: 0, y2: -6 }, sky.scope);
+    el("line", { x1: 0, y1: 6, x2: 0, y2: 10 }, sky.scope);
+    sky.title = el("title", {}, sky.scope);
+  }
+
+  function pointsText(pairs) {
+    return pairs.map(([az, alt]) => project(az, alt).map((v) => v.toFixed(2)).join(",")).join(" ");
+  }
+
+  function drawSky(s) {
+    const geo = s.sky;
+    const floorKey = JSON.stringify(geo.floor);
+    if (floorKey !== state.floorKey) {
+      state.floorKey = floorKey;
+      const ring = pointsText(geo.floor);
+      const outer = ((90 - MIN_ALT) / 90) * R;
+      // Ground = the band between the plot's edge and the lowest allowed altitude (even-odd fill).
+      sky.ground.setAttribute("d", "M " + ring.split(" ").join(" L ") + " Z " +
+        "M " + outer + " 0 A " + outer + " " + outer + " 0 1 0 " + (-outer) + " 0 A " + outer + " " + outer + " 0 1 0 " + outer + " 0 Z");
+      sky.floor.setAttribute("d", "M " + ring.split(" ").join(" L ") + " Z");
+    }
+    const flipKey = JSON.stringify(geo.flip_line);
+    if (flipKey !== state.flipKey) {
+      state.flipKey = flipKey;
+      sky.flip.setAttribute("points", pointsText(geo.flip_line));
+    }
+    const limitKey = JSON.stringify(geo.mount_limits);
+    if (limitKey !== state.limitKey) {
+      state.limitKey = limitKey;
+      sky.mlimits.replaceChildren();
+      if (geo.mount_limits) {
+        for (const alt of [geo.mount_limits.lower, geo.mount_limits.upper]) {
+          if (alt !== null && alt !== undefined) el("circle", { cx: 0, cy: 0, r: ((90 - alt) / 90) * R, class: "sky-mlimit" }, sky.mlimits);
+        }
+      }
+    }
+    const [px, py] = project(geo.pole[0], geo.pole[1]);
+    sky.pole.setAttribute("transform", "translate(" + px.toFixed(2) + " " + py.toFixed(2) + ")");
+
+    const pos = s.position;
+    if (!pos) {
+      sky.scope.classList.add("hidden");
+      return;
+    }
+    const [x, y] = project(pos.az, pos.alt);
+    sky.scope.classList.remove("hidden");
+    sky.scope.setAttribute("transform", "translate(" + x.toFixed(2) + " " + y.toFixed(2) + ")");
+    let cls = "sky-scope";
+    if (pos.below_limit) cls += " danger";
+    else if (s.slewing) cls += " slewing";
+    else if (!s.tracking) cls += " idle";
+    sky.scope.setAttribute("class", cls);
+    sky.title.textContent = "Alt " + pos.alt.toFixed(1) + "\u00b0, Az " + pos.az.toFixed(1) + "\u00b0";
+
+    const last = state.trail[state.trail.length - 1];
+    if (!last || Math.hypot(last[0] - x, last[1] - y) > 0.3) {
+      state.trail.push([x, y]);
+      if (state.trail.length > TRAIL_POINTS) state.trail.shift();
+      sky.trail.setAttribute("points", state.trail.map((p) => p[0].toFixed(2) + "," + p[1].toFixed(2)).join(" "));
+    }
+
+    if (s.target && s.slewing) {
+      const [tx, ty] = project(s.target.az, s.target.alt);
+      sky.target.setAttribute("cx", tx.toFixed(2));
+      sky.target.setAttribute("cy", ty.toFixed(2));
+      sky.path.setAttribute("x1", x.toFixed(2));
+      sky.path.setAttribute("y1", y.toFixed(2));
+      sky.path.setAttribute("x2", tx.toFixed(2));
+      sky.path.setAttribute("y2", ty.toFixed(2));
+      sky.target.classList.remove("hidden");
+      sky.path.classList.remove("hidden");
+    } else {
+      sky.target.classList.add("hidden");
+      sky.path.classList.add("hidden");
+    }
+  }
+
+  // ---------------------------------------------------------------- status
+
+  function renderStatus(s) {
+    state.status = s;
+    state.connected = s.connected;
+    const pos = s.position;
+    setText("device-name", "\u2014 " + s.name);
+    setText("ra", pos ? fmtHours(pos.ra) : "\u2013", "big");
+    setText("dec", pos ? fmtDeg(pos.dec) : "\u2013", "big");
+    setText("alt", pos ? fmtAngle(pos.alt) : "\u2013", pos && pos.below_limit ? "big bad" : "big");
+    setText("az", pos ? fmtAngle(pos.az) : "\u2013", "big");
+    setText("lst", fmtHours(s.time.lst));
+    setText("ha", pos ? fmtHa(pos.ha) : "\u2013");
+
+    const pierNames = { east: "east (looking west)", west: "west (looking east)", unknown: "unknown" };
+    setText("pier", s.pier_side ? pierNames[s.pier_side] : "\u2013");
+
+    if (!s.connected) {
+      setText("tracking", "\u2013");
+    } else if (s.tracking) {
+      setText("tracking", "on, " + (s.tracking_rate_name || "?"), "yes");
+    } else {
+      setText("tracking", "off" + (s.tracking_stopped ? " (" + s.tracking_stopped + ")" : ""), s.tracking_stopped ? "bad" : "");
+    }
+    const [slewText, slewCls] = yesNo(s.slewing, "busy");
+    setText("slewing", s.connected ? slewText + (s.moving_axes.length ? " (manual move)" : "") : "\u2013", slewCls);
+    setText("guiding", s.connected ? (s.guiding ? "pulse guiding" : "no") + ", rate " + (s.guide_rate !== null ? s.guide_rate.toFixed(1) + "\u00d7" : "?") : "\u2013", s.guiding ? "busy" : "");
+    const park = s.at_park ? "parked" : s.at_home ? "at home" : "no";
+    setText("park", s.connected ? park : "\u2013", s.at_park || s.at_home ? "yes" : "");
+
+    const m = s.meridian;
+    let mer = m.limit_deg === 0 ? "flips at the meridian"
+      : "flip line " + Math.abs(m.limit_deg) + "\u00b0 " + (m.limit_deg > 0 ? "past" : "before") + " the meridian";
+    if (m.minutes_to_limit !== null) mer += m.minutes_to_limit >= 0 ? "; reached in " + fmtMinutes(m.minutes_to_limit) : "; passed " + fmtMinutes(-m.minutes_to_limit) + " ago";
+    setText("meridian", mer);
+    setText("mount", s.mount ? "ZWO " + s.mount.model + ", firmware " + s.mount.firmware + (s.flags.mode ? ", " + s.flags.mode : "") : "\u2013");
+
+    const link = s.link;
+    let linkText = link.state;
+    if (link.state === "connected" && !s.initialised) linkText += ", initialising";
+    if (link.reconnects) linkText += ", " + link.reconnects + " reconnect" + (link.reconnects > 1 ? "s" : "");
+    if (link.last_error) linkText += " \u2014 " + link.last_error;
+    setText("link", linkText + " (" + link.url + ")", link.state === "connected" ? "" : link.state === "closed" ? "" : "bad");
+    const age = pos ? pos.age_s : null;
+    setText("age", age === null ? "\u2013" : fmtDuration(age) + (s.link.poll_error ? " \u2014 " + s.link.poll_error : ""), age !== null && age > 5 && s.connected ? "bad" : "");
+    const utc = s.time.utc.replace("T", " ").replace(/\.\d+Z$/, " UTC");
+    setText("utc", utc);
+
+    const pill = $("link-pill");
+    let pillText = "mount: " + link.state;
+    let pillCls = "pill pill-off";
+    if (link.state === "connected") {
+      pillCls = age !== null && age > 5 ? "pill pill-warn" : "pill pill-ok";
+      pillText = "mount: connected" + (age !== null ? ", " + fmtDuration(age) + " old" : "");
+    } else if (link.state === "reconnecting" || link.state === "connecting") {
+      pillCls = "pill pill-warn";
+    }
+    pill.textContent = pillText;
+    pill.className = pillCls;
+
+    const warnings = [];
+    if (pos && pos.below_limit) warnings.push("The telescope is below the horizon limit (" + pos.floor.toFixed(1) + "\u00b0 here).");
+    if (s.flags.low_voltage) warnings.push("The mount reports low supply voltage.");
+    if (s.flags.ra_stall || s.flags.dec_stall) warnings.push("The mount reports a stalled axis.");
+    if (s.connected && !s.initialised) warnings.push("Time and site have not been sent to the mount yet.");
+    const w = $("warnings");
+    w.textContent = warnings.join(" ");
+    w.classList.toggle("hidden", warnings.length === 0);
+
+    const offset = s.time.offset_s;
+    const browserSkew = (Date.parse(s.time.utc) - Date.now()) / 1000;
+    setText("clock-note", "Mount clock vs this browser: " + (browserSkew >= 0 ? "+" : "") + browserSkew.toFixed(1) + " s" +
+      (Math.abs(offset) > 0.5 ? "; vs the server's clock: " + (offset >= 0 ? "+" : "") + offset.toFixed(1) + " s" : "") +
+      ". LST " + fmtHours(s.time.lst) + ".", "muted small");
+
+    renderControls(s);
+    renderClients(s.clients);
+    drawSky(s);
+  }
+
+  function renderControls(s) {
+    const on = s.connected;
+    $("btn-connect").classList.toggle("hidden", s.page_connected);
+    $("btn-disconnect").classList.toggle("hidden", !s.page_connected);
+    setText("connect-note", on ? (s.page_connected ? "" : "in use by a client") : "the mount link is closed", "muted small");
+    for (const id of ["btn-park", "btn-unpark", "btn-home", "btn-track-on", "btn-track-off", "tracking-rate", "btn-setpark", "btn-time"]) {
+      $(id).disabled = !on;
+    }
+    for (const b of document.querySelectorAll(".jogb")) b.disabled = !on || s.at_park;
+    $("btn-park").disabled = !on || s.at_park;
+    $("btn-unpark").disabled = !on || !s.at_park;
+    $("btn-track-on").classList.toggle("active", on && s.tracking);
+    $("btn-track-off").classList.toggle("active", on && !s.tracking);
+    const rate = $("tracking-rate");
+    if (s.tracking_rate !== null && document.activeElement !== rate) rate.value = String(s.tracking_rate);
+    const guide = $("guide-rate");
+    if (s.guide_rate !== null && document.activeElement !== guide && !guide.dataset.dirty) guide.value = s.guide_rate.toFixed(1);
+    for (const form of document.querySelectorAll("form.mount-only")) {
+      form.classList.toggle("disabled", !on);
+      for (const input of form.querySelectorAll("input, select, button")) input.disabled = !on;
+    }
+    if (on && !state.mountSettingsLoaded) loadSettings();
+  }
+
+  function renderClients(rows) {
+    const body = $("clients");
+    body.replaceChildren();
+    if (!rows.length) {
+      const tr = document.createElement("tr");
+      const td = document.createElement("td");
+      td.colSpan = 5;
+      td.className = "muted";
+      td.textContent = "no client in the last 5 minutes";
+      tr.append(td);
+      body.append(tr);
+      return;
+    }
+    for (const c of rows) {
+      const tr = document.createElement("tr");
+      const who = c.setup_page ? "setup page (" + c.address + ")" : c.address + (c.user_agent ? " \u2014 " + c.user_agent : "");
+      const cells = [who, c.setup_page ? "" : String(c.client_id), c.connected ? "yes" : "no", String(c.requests), fmtDuration(c.idle_s)];
+      for (const text of cells) {
+        const td = document.createElement("td");
+        td.textContent = text;
+        if (c.setup_page) td.className = "mine";
+        tr.append(td);
+      }
+      body.append(tr);
+    }
+  }
+
+  let pollTimer = null;
+  let polling = false;
+
+  async function poll(immediate) {
+    if (immediate) {
+      clearTimeout(pollTimer);
+    }
+    if (polling) return;
+    polling = true;
+    try {
+      const s = await request(base + "/status");
+      state.pollFailures = 0;
+      renderStatus(s);
+    } catch (err) {
+      state.pollFailures += 1;
+      const pill = $("link-pill");
+      pill.textContent = "server unreachable";
+      pill.className = "pill pill-bad";
+      if (state.pollFailures === 3) message("Lost contact with the server: " + err.message, "error");
+    } finally {
+      polling = false;
+      clearTimeout(pollTimer);
+      pollTimer = setTimeout(poll, POLL_MS);
+    }
+  }
+
+  // ---------------------------------------------------------------- controls
+
+  function stopJog() {
+    const jog = state.jogging;
+    if (!jog) return;
+    state.jogging = null;
+    jog.button.classList.remove("pressed");
+    // The mount must stop even if this request races the press: send it regardless, quietly.
+    action("move", { axis: jog.axis, rate: 0 }).catch((err) => message("Stopping the move failed: " + err.message));
+  }
+
+  function bindJog() {
+    for (const button of document.querySelectorAll(".jogb[data-axis]")) {
+      button.addEventListener("pointerdown", (ev) => {
+        if (button.disabled) return;
+        ev.preventDefault();
+        if (button.setPointerCapture) {
+          try { button.setPointerCapture(ev.pointerId); } catch (_) { /* not capturable: fine */ }
+        }
+        stopJog();
+        const axis = Number(button.dataset.axis);
+        const multiple = Number($("jog-speed").value);
+        const rate = Number(button.dataset.sign) * multiple * state.server.sidereal_deg_s;
+        state.jogging = { axis, button };
+        button.classList.add("pressed");
+        action("move", { axis, rate }).then(() => poll(true)).catch((err) => {
+          if (state.jogging && state.jogging.button === button) {
+            state.jogging = null;
+            button.classList.remove("pressed");
+          }
+          message("Move failed: " + err.message);
+        });
+      });
+      for (const type of ["pointerup", "pointercancel", "lostpointercapture", "pointerleave"]) {
+        button.addEventListener(type, () => {
+          if (state.jogging && state.jogging.button === button) stopJog();
+        });
+      }
+      button.addEventListener("keydown", (ev) => {
+        if ((ev.key === " " || ev.key === "Enter") && !ev.repeat && !state.jogging) {
+          button.dispatchEvent(new PointerEvent("pointerdown", { bubbles: true }));
+        }
+      });
+      button.addEventListener("keyup", (ev) => {
+        if (ev.key === " " || ev.key === "Enter") stopJog();
+      });
+    }
+    window.addEventListener("blur", stopJog);
+    document.addEventListener("visibilitychange", () => { if (document.hidden) stopJog(); });
+    $("jog-stop").addEventListener("click", () => run("Stopped.", () => action("abort")));
+    const speed = $("jog-speed");
+    for (const m of state.server.jog_multiples) {
+      const opt = document.createElement("option");
+      opt.value = String(m);
+      opt.textContent = m + "\u00d7 sidereal" + (m >= 60 ? " (" + (m * state.server.sidereal_deg_s).toFixed(2) + "\u00b0/s)" : "");
+      speed.append(opt);
+    }
+    speed.value = "20";
+  }
+
+  function bindControls() {
+    $("btn-stop").addEventListener("click", () => {
+      stopJog();
+      run("Stopped.", () => action("abort"));
+    });
+    $("btn-connect").addEventListener("click", () => run("Mount connected.", () => action("connect")));
+    $("btn-disconnect").addEventListener("click", () => run("Released the mount.", () => action("disconnect")));
+    $("btn-park").addEventListener("click", () => run("Parking\u2026", () => action("park")));
+    $("btn-unpark").addEventListener("click", () => run("Unparked.", () => action("unpark")));
+    $("btn-home").addEventListener("click", () => run("Going home\u2026", () => action("find_home")));
+    $("btn-track-on").addEventListener("click", () => run("Tracking on.", () => action("tracking", { on: true })));
+    $("btn-track-off").addEventListener("click", () => run("Tracking off.", () => action("tracking", { on: false })));
+    $("tracking-rate").addEventListener("change", (ev) =>
+      run("Tracking rate set.", () => action("tracking_rate", { rate: Number(ev.target.value) })));
+    const guide = $("guide-rate");
+    guide.addEventListener("input", () => { guide.dataset.dirty = "1"; });
+    $("form-guide").addEventListener("submit", async (ev) => {
+      ev.preventDefault();
+      await run("Guide rate set.", () => action("guide_rate", { rate: Number(guide.value) }));
+      delete guide.dataset.dirty;
+    });
+    $("btn-setpark").addEventListener("click", async () => {
+      const result = await run("Park position set to the current position.", () => action("set_park"));
+      if (result) loadSettings();
+    });
+    $("btn-time").addEventListener("click", () =>
+      run("Mount time set from this browser.", () => action("time", { utc: new Date().toISOString() })));
+    $("btn-geo").addEventListener("click", useBrowserLocation);
+  }
+
+  function useBrowserLocation() {
+    if (!navigator.geolocation || !window.isSecureContext) {
+      message("This browser only shares its location with https pages or localhost; enter the site by hand.");
+      return;
+    }
+    navigator.geolocation.getCurrentPosition(
+      (p) => {
+        $("site-lat").value = p.coords.latitude.toFixed(6);
+        $("site-lon").value = p.coords.longitude.toFixed(6);
+        if (p.coords.altitude !== null) $("site-elev").value = p.coords.altitude.toFixed(0);
+        message("Location filled in from this browser; press Save site to use it.", "info");
+      },
+      (err) => message("The browser did not give its location: " + err.message),
+      { enableHighAccuracy: true, timeout: 20000 }
+    );
+  }
+
+  // ---------------------------------------------------------------- settings
+
+  function num(id) {
+    return Number($(id).value);
+  }
+
+  function fillSettings(s) {
+    state.settings = s;
+    $("site-lat").value = s.site.latitude;
+    $("site-lon").value = s.site.longitude;
+    $("site-elev").value = s.site.elevation;
+    $("park-mode").value = s.park.mode;
+    $("park-ha").value = Number(s.park.ha_hours.toFixed(4));
+    $("park-dec").value = Number(s.park.dec_deg.toFixed(4));
+    $("h-min").value = s.limits.min_altitude_deg;
+    $("h-profile").value = s.limits.horizon.map((p) => p[0] + " " + p[1]).join("\n");
+    $("s-watchdog").value = s.safety.moveaxis_watchdog_s;
+    $("s-shutdown").value = s.safety.on_shutdown;
+    $("d-name").value = s.device.name;
+    $("d-url").value = s.device.url;
+    const m = s.mount;
+    state.mountSettingsLoaded = Boolean(m);
+    if (m) {
+      if (m.meridian) {
+        $("mer-track").checked = m.meridian.track_after;
+        $("mer-limit").value = m.meridian.limit_degrees;
+      }
+      if (m.limits_enabled !== null) $("ml-enabled").checked = m.limits_enabled;
+      if (m.upper_limit !== null) $("ml-upper").value = m.upper_limit;
+      if (m.lower_limit !== null) $("ml-lower").value = m.lower_limit;
+      if (m.heavy_duty !== null) $("m-heavy").checked = m.heavy_duty;
+      if (m.buzzer !== null) $("m-buzzer").value = String(m.buzzer);
+    } else {
+      $("mer-track").checked = s.limits.meridian_track_past;
+      $("mer-limit").value = Math.round(s.limits.meridian_limit_deg);
+    }
+  }
+
+  let settingsLoading = false;
+
+  async function loadSettings() {
+    if (settingsLoading) return;
+    settingsLoading = true;
+    try {
+      fillSettings(await request(base + "/settings"));
+    } catch (err) {
+      message("Could not read the settings: " + err.message);
+    } finally {
+      settingsLoading = false;
+    }
+  }
+
+  function parseHorizon(text) {
+    const points = [];
+    for (const [i, line] of text.split("\n").entries()) {
+      const t = line.trim();
+      if (!t || t.startsWith("#")) continue;
+      const parts = t.split(/[\s,;]+/).map(Number);
+      if (parts.length !== 2 || parts.some((v) => !Number.isFinite(v))) {
+        throw new Error("horizon line " + (i + 1) + " is not \u201cazimuth altitude\u201d: " + t);
+      }
+      points.push(parts);
+    }
+    return points;
+  }
+
+  function saveSettings(label, build) {
+    return async (ev) => {
+      ev.preventDefault();
+      let body;
+      try {
+        body = build();
+      } catch (err) {
+        message(err.message);
+        return;
+      }
+      const result = await run(label, () => post(base + "/settings", body));
+      if (result) fillSettings(result);
+    };
+  }
+
+  function bindSettings() {
+    $("form-site").addEventListener("submit", saveSettings("Site saved and sent to the mount.", () => ({
+      site: { latitude: num("site-lat"), longitude: num("site-lon"), elevation: num("site-elev") },
+    })));
+    $("form-meridian").addEventListener("submit", saveSettings("Meridian settings saved.", () => ({
+      meridian: { track_after: $("mer-track").checked, limit_degrees: num("mer-limit") },
+    })));
+    $("form-mlimits").addEventListener("submit", saveSettings("Altitude limits saved.", () => ({
+      mount_limits: { enabled: $("ml-enabled").checked, upper: num("ml-upper"), lower: num("ml-lower") },
+    })));
+    $("form-mount").addEventListener("submit", saveSettings("Mount settings saved.", () => ({
+      heavy_duty: $("m-heavy").checked, buzzer: num("m-buzzer"),
+    })));
+    $("form-horizon").addEventListener("submit", saveSettings("Horizon saved.", () => ({
+      limits: { min_altitude_deg: num("h-min"), horizon: parseHorizon($("h-profile").value) },
+    })));
+    $("form-park").addEventListener("submit", saveSettings("Park position saved.", () => ({
+      park: { mode: $("park-mode").value, ha_hours: num("park-ha"), dec_deg: num("park-dec") },
+    })));
+    $("form-safety").addEventListener("submit", saveSettings("Safety settings saved.", () => ({
+      safety: { moveaxis_watchdog_s: num("s-watchdog"), on_shutdown: $("s-shutdown").value },
+    })));
+    $("form-device").addEventListener("submit", saveSettings("Device name saved.", () => ({
+      device: { name: $("d-name").value.trim() },
+    })));
+    $("form-server").addEventListener("submit", async (ev) => {
+      ev.preventDefault();
+      const body = {
+        host: $("n-host").value.trim(), port: num("n-port"), discovery_port: num("n-disc"),
+        mdns: $("n-mdns").checked, location: $("n-location").value,
+      };
+      const result = await run("Network settings saved; restart the server to apply them.", () => post("/setup/api/server", body));
+      if (result) fillServer(result);
+    });
+  }
+
+  function fillServer(info) {
+    state.server = info;
+    $("n-host").value = info.configured.host;
+    $("n-port").value = info.configured.port;
+    $("n-disc").value = info.configured.discovery_port;
+    $("n-mdns").checked = info.configured.mdns;
+    $("n-location").value = info.location;
+    setText("server-line", info.manufacturer + " \u00b7 version " + info.version + " \u00b7 port " + info.port +
+      (info.discovery_port ? " \u00b7 discovery on UDP " + info.discovery_port : ""), "sub");
+    setText("server-info", "Alpaca API: http://" + location.host + "/api/v1/telescope/" + device + "/ \u00b7 " +
+      (info.config_file ? "settings file " + info.config_file : "settings not saved to a file"), "muted small");
+    setText("footer", "alpaca-zwo " + info.version + (info.location ? " \u00b7 " + info.location : ""), "muted small");
+    const select = $("device-select");
+    if (info.devices.length > 1) {
+      select.replaceChildren();
+      for (const d of info.devices) {
+        const opt = document.createElement("option");
+        opt.value = String(d.number);
+        opt.textContent = d.number + ": " + d.name;
+        select.append(opt);
+      }
+      select.value = String(device);
+      $("device-select-wrap").classList.remove("hidden");
+    }
+  }
+
+  // ---------------------------------------------------------------- diagnostics
+
+  async function refreshTrace() {
+    if (!$("trace-panel").open) return;
+    try {
+      const data = await request(base + "/trace?after=" + state.traceAfter);
+      const body = $("trace");
+      for (const e of data.entries) {
+        const tr = document.createElement("tr");
+        const when = new Date(e.time * 1000).toISOString().slice(11, 23);
+        for (const text of [when, e.request, e.reply === null ? "(none)" : e.reply, e.duration_ms.toFixed(1), e.note]) {
+          const td = document.createElement("td");
+          td.textContent = text;
+          tr.append(td);
+        }
+        body.append(tr);
+        state.traceAfter = e.time;
+      }
+      while (body.children.length > 500) body.firstChild.remove();
+    } catch (err) {
+      /* the status poll reports an unreachable server */
+    }
+  }
+
+  async function refreshLog() {
+    if (!$("log-panel").open) return;
+    try {
+      const data = await request("/setup/api/log?after=" + state.logAfter);
+      const pre = $("log");
+      const atBottom = pre.scrollTop + pre.clientHeight >= pre.scrollHeight - 4;
+      for (const e of data.entries) {
+        const when = new Date(e.time * 1000).toISOString().slice(11, 19);
+        pre.append(when + " " + e.level.padEnd(7) + " " + e.logger + ": " + e.message + "\n");
+        state.logAfter = e.seq;
+      }
+      while (pre.childNodes.length > 1000) pre.firstChild.remove();
+      if (atBottom) pre.scrollTop = pre.scrollHeight;
+    } catch (err) {
+      /* as above */
+    }
+  }
+
+  // ---------------------------------------------------------------- start
+
+  function bindNight() {
+    const button = $("btn-night");
+    const apply = (on) => {
+      document.documentElement.classList.toggle("night", on);
+      button.setAttribute("aria-pressed", String(on));
+    };
+    let stored = null;
+    try { stored = localStorage.getItem("alpaca-zwo-night"); } catch (_) { /* storage disabled */ }
+    apply(stored === "1");
+    button.addEventListener("click", () => {
+      const on = !document.documentElement.classList.contains("night");
+      apply(on);
+      try { localStorage.setItem("alpaca-zwo-night", on ? "1" : "0"); } catch (_) { /* not kept */ }
+    });
+  }
+
+  async function start() {
+    bindNight();
+    buildSky();
+    $("trace-download").href = base + "/trace.txt";
+    $("device-select").addEventListener("change", (ev) => {
+      location.href = "/setup/v1/telescope/" + ev.target.value + "/setup";
+    });
+    try {
+      fillServer(await request("/setup/api/server"));
+    } catch (err) {
+      message("Could not reach the server: " + err.message);
+      state.server = { jog_multiples: [20], sidereal_deg_s: 0.0041781 };
+    }
+    bindJog();
+    bindControls();
+    bindSettings();
+    await loadSettings();
+    poll();
+    setInterval(refreshTrace, 2000);
+    setInterval(refreshLog, 2000);
+    $("trace-panel").addEventListener("toggle", refreshTrace);
+    $("log-panel").addEventListener("toggle", refreshLog);
+  }
+
+  if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
+  else start();
+})();

@@ -1,0 +1,138 @@
+"""The ``alpaca-zwo-emulator`` command, run as a real subprocess and driven over TCP."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from emuclient import MountClient
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class Emulator:
+    """A running ``python -m alpaca_zwo.emulator`` and the endpoints it printed."""
+
+    def __init__(self, *args: str) -> None:
+        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "alpaca_zwo.emulator", "--port", "0", *args],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
+        )
+        self.endpoints: dict[str, str] = {}
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:  # the endpoint lines come first and are flushed at once
+            match = re.fullmatch(r"(tcp|pty|control) (\S+)\n", line)
+            if match:
+                self.endpoints[match.group(1)] = match.group(2)
+            if "tcp" in self.endpoints and ("--control-port" not in args or "control" in self.endpoints) and (
+                "--pty" not in args or "pty" in self.endpoints
+            ):
+                break
+        else:
+            raise AssertionError(f"emulator did not start: {self.proc.stderr.read() if self.proc.stderr else ''}")
+
+    def port(self, name: str = "tcp") -> int:
+        return int(self.endpoints[name].rsplit(":", 1)[1])
+
+    def control(self, command: str) -> dict[str, object]:
+        with socket.create_connection(("127.0.0.1", self.port("control")), timeout=3.0) as sock:
+            sock.sendall(command.encode() + b"\n")
+            data = b""
+            while not data.endswith(b"\n"):
+                chunk = sock.recv(65536)
+                assert chunk, "control connection closed"
+                data += chunk
+        return json.loads(data)
+
+    def terminate(self) -> int:
+        self.proc.send_signal(signal.SIGTERM)
+        try:
+            return self.proc.wait(timeout=10.0)
+        finally:
+            if self.proc.poll() is None:
+                self.proc.kill()
+
+
+@pytest.fixture
+def start_emulator() -> Iterator[type[Emulator]]:
+    started: list[Emulator] = []
+
+    class Tracked(Emulator):
+        def __init__(self, *args: str) -> None:
+            super().__init__(*args)
+            started.append(self)
+
+    yield Tracked
+    for emulator in started:
+        if emulator.proc.poll() is None:
+            emulator.proc.kill()
+            emulator.proc.wait(5.0)
+
+
+def test_cli_serves_tcp_and_control_and_stops_cleanly(start_emulator: type[Emulator]) -> None:
+    emulator = start_emulator("--control-port", "0", "--baud", "0", "--initialized",
+                              "--start-time", "2025-03-20T14:00:00Z", "--speed", "2",
+                              "--latitude", "52.5", "--longitude", "13.4", "--model", "AM3", "--firmware", "1.6.3",
+                              "--gt-mapping", "chinese", "--hp-reply", "1#", "--home-flag", "always_at_home")
+    client = MountClient(emulator.port())
+    try:
+        assert client.ask(":GVP#") == "AM3#"
+        assert client.ask(":GV#") == "1.6.3#"
+        assert client.ask(":GC#") == "03/20/25#"  # --initialized: date set from --start-time
+        assert client.ask(":Gt#") == "+52*30:00#"
+        assert client.ask(":Gg#") == "-013*24:00#"  # east stored negative
+        assert client.ask(":GU#") == "nNHG000000000#"
+        assert client.exact(":TL#") == ""
+        assert client.ask(":GT#") == "1#"
+        assert client.exact(":Sr10:00:00#:Sd+45*00:00#") == "11"
+
+        state = emulator.control("state")
+        assert state["ok"] is True
+        assert state["state"]["firmware"]["model"] == "AM3"  # type: ignore[index]
+        assert state["state"]["initialized"] is True  # type: ignore[index]
+
+        assert emulator.control("drop 1") == {"ok": True, "command": "drop"}
+        client.assert_silent(":GVP#")
+        assert client.ask(":GVP#") == "AM3#"
+
+        stats = emulator.control("stats")["stats"]
+        assert stats["total"]["exchanges"] >= 10  # type: ignore[index]
+
+        assert emulator.control("bogus")["ok"] is False
+        assert emulator.control("stall x")["ok"] is False
+        assert emulator.control("reboot 0")["ok"] is True
+    finally:
+        client.close()
+    again = MountClient(emulator.port())
+    try:
+        assert again.ask(":GC#") == "01/01/00#"  # rebooted through the control port
+    finally:
+        again.close()
+    assert emulator.terminate() == 0
+
+
+def test_cli_pty_option_prints_a_usable_device(start_emulator: type[Emulator]) -> None:
+    serial = pytest.importorskip("serial")
+    emulator = start_emulator("--pty", "--baud", "0")
+    path = emulator.endpoints["pty"]
+    with serial.Serial(path, 9600, timeout=3.0) as port:
+        port.write(b":GVP#")
+        assert port.read_until(b"#") == b"AM5#"
+    assert emulator.terminate() == 0
+
+
+def test_cli_rejects_bad_arguments() -> None:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    result = subprocess.run([sys.executable, "-m", "alpaca_zwo.emulator", "--home-flag", "sometimes"],
+                            capture_output=True, text=True, env=env, cwd=ROOT, timeout=30)
+    assert result.returncode == 2
+    assert "--home-flag" in result.stderr

@@ -1,0 +1,148 @@
+"""The server: several TCP connections on one mount, baud-rate pacing, counters, the pty."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+from emuclient import MountClient, flags, initialize, target_at
+
+from alpaca_zwo import protocol
+from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
+
+
+@pytest.fixture
+def paced(model: MountModel) -> Iterator[EmulatorServer]:
+    server = EmulatorServer(model, port=0, baud=9600).start()
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+def test_several_connections_share_one_mount(
+    connect: Callable[[], MountClient], model: MountModel, clock: ManualClock
+) -> None:
+    first, second, third = connect(), connect(), connect()
+    initialize(first, clock)
+    assert second.ask(":GC#") == first.ask(":GC#") != "01/01/00#"
+    first.exact(protocol.set_target_ra(target_at(model, -2.0)).text)
+    first.exact(":Sd+30*00:00#")
+    assert second.ask(":Gr#") == first.ask(":Gr#")
+    assert first.exact(":MS#") == "0"
+    clock.advance(3.0)
+    assert "N" not in flags(second)
+    assert second.ask(":GR#") == third.ask(":GR#")
+    assert third.exact(":MS#") == "e3#"
+    third.send(":Q#")  # any connection can stop it
+    assert "N" in flags(first)
+
+
+def test_each_connection_has_its_own_framer(connect: Callable[[], MountClient]) -> None:
+    first, second = connect(), connect()
+    first.write(":GV")  # half a command on one line...
+    assert second.ask(":GVP#") == "AM5#"  # ...does not disturb the other
+    assert first.exact("P#") == "AM5#"
+
+
+def test_gr_exchange_takes_the_time_of_13_bytes_at_9600_baud(paced: EmulatorServer) -> None:
+    client = MountClient(paced.port)
+    try:
+        expected = (4 + 9) * 10 / 9600  # 13.5 ms
+        samples = []
+        for _ in range(10):
+            started = time.perf_counter()
+            assert len(client.ask(":GR#")) == 9
+            samples.append(time.perf_counter() - started)
+        assert min(samples) >= expected * 0.95
+        assert sorted(samples)[5] < expected + 0.05
+        started = time.perf_counter()
+        client.write(":GR#" * 20)
+        client.read_until(lambda d: d.count(b"#") == 20)
+        # Full duplex, like a UART: requests keep arriving while replies go out, but the 180 reply
+        # bytes queue on the one outgoing wire.
+        assert time.perf_counter() - started >= (4 + 20 * 9) * 10 / 9600 * 0.95
+    finally:
+        client.close()
+
+
+def test_unpaced_server_is_much_faster(emu: EmulatorServer, mount: MountClient) -> None:
+    started = time.perf_counter()
+    for _ in range(20):
+        mount.ask(":GR#")
+    assert (time.perf_counter() - started) / 20 < (4 + 9) * 10 / 9600
+
+
+def test_stats_count_bytes_and_exchanges(emu: EmulatorServer, connect: Callable[[], MountClient]) -> None:
+    client = connect()
+    client.ask(":GR#")  # 4 in, 9 out
+    client.send(":Q#")  # 3 + sentinel 5 in, sentinel reply 9 out
+    client.assert_silent(":XX#")  # 4 in, unknown: still an exchange, no reply
+    deadline = time.monotonic() + 2.0
+    while emu.stats()["total"]["exchanges"] < 4 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    stats = emu.stats()
+    (line,) = [entry for entry in stats["connections"] if entry["kind"] == "tcp"]
+    assert line["bytes_in"] == 4 + 3 + 5 + 4
+    assert line["bytes_out"] == 9 + 9
+    assert line["exchanges"] == 4
+    assert line["replies"] == 2
+    assert stats["total"]["bytes_in"] == 16
+    client.close()
+    assert _eventually(lambda: emu.connection_count() == 0)
+    assert emu.stats()["total"]["bytes_in"] == 16  # totals survive the connection
+
+
+def _eventually(condition: Callable[[], bool], timeout: float = 3.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.01)
+    return condition()
+
+
+def test_stop_closes_connections_and_is_idempotent(model: MountModel) -> None:
+    with EmulatorServer(model, port=0, baud=0) as server:
+        client = MountClient(server.port)
+        assert client.ask(":GVP#") == "AM5#"
+    client.sock.settimeout(2.0)
+    assert client.sock.recv(10) == b""
+    server.stop()
+    client.close()
+
+
+def test_pty_serves_pyserial_clients(model: MountModel, tmp_path: Path) -> None:
+    serial = pytest.importorskip("serial")
+    link = tmp_path / "ttyZWO"
+    with EmulatorServer(model, port=0, baud=9600, pty=True, pty_link=str(link)) as server:
+        assert server.pty_path is not None and server.pty_path.startswith("/dev/")
+        assert os.path.realpath(link) == server.pty_path
+        port = serial.Serial(server.pty_path, 9600, timeout=2.0)
+        try:
+            port.write(b":GVP#")
+            assert port.read_until(b"#") == b"AM5#"
+            port.write(b":SLE#")
+            assert port.read(1) == b"1"
+            port.write(b":Q#:GLC#")  # nothing for :Q#, then the query
+            assert port.read_until(b"#") == b"1#"
+            port.write(b":Rg0.30:GU#")
+            assert port.read_until(b"#") == b"nNG000000000#"
+            started = time.perf_counter()
+            port.write(b":GR#")
+            assert len(port.read_until(b"#")) == 9
+            assert time.perf_counter() - started >= (4 + 9) * 10 / 9600 * 0.95  # paced like USB
+        finally:
+            port.close()
+        old = server.pty_path
+        server.faults.close_connections()
+        new = server.wait_pty()
+        assert new is not None
+        assert _eventually(lambda: os.path.realpath(link) == server.pty_path)
+        with serial.Serial(str(link), 9600, timeout=2.0) as again:
+            again.write(b":GLC#")
+            assert again.read_until(b"#") == b"1#"  # same mount, state kept
+        assert old is not None

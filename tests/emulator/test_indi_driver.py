@@ -1,0 +1,188 @@
+"""A third-party driver against the emulator: INDI's ``indi_lx200am5`` (Debian ``indi-bin``).
+
+INDI is written against real AM5 mounts, so if its driver can connect, read the position, push
+time and site, GOTO, sync, abort, guide and home through the emulator, the emulator's framing
+and behaviour are close enough to the real thing for a real client. The driver runs under a
+real ``indiserver`` on a free loopback port, is pointed at the emulator's TCP port with
+``indi_setprop`` and observed with ``indi_getprop``. Skipped where ``indi-bin`` is missing.
+
+Waiting here is polling for an observable condition with a deadline: the driver polls the mount
+once a second in real time, so nothing can be made synchronous.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import time
+from collections.abc import Callable, Iterator
+from datetime import datetime, timezone
+from pathlib import Path
+
+import pytest
+
+from alpaca_zwo import sky
+from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
+
+pytestmark = pytest.mark.skipif(
+    shutil.which("indiserver") is None or shutil.which("indi_lx200am5") is None,
+    reason="INDI (Debian package indi-bin) is not installed",
+)
+
+DEVICE = "ZWO AM5"
+SPEED = 10.0  # emulated seconds per real second: slews finish quickly, INDI polls at 1 Hz real time
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+class Indi:
+    """An ``indiserver`` running ``indi_lx200am5``, driven with indi_setprop / indi_getprop."""
+
+    def __init__(self, home: Path) -> None:
+        self.port = _free_port()
+        env = dict(os.environ, HOME=str(home))  # the driver's config files go to a temp dir
+        self.proc = subprocess.Popen(
+            ["indiserver", "-p", str(self.port), "indi_lx200am5"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, start_new_session=True,
+        )
+
+    def get(self, *specs: str) -> dict[str, str]:
+        result = subprocess.run(
+            ["indi_getprop", "-p", str(self.port), "-t", "2", *[f"{DEVICE}.{spec}" for spec in specs]],
+            capture_output=True, text=True, timeout=15,
+        )
+        values = {}
+        for line in result.stdout.splitlines():
+            name, _, value = line.partition("=")
+            values[name.removeprefix(DEVICE + ".")] = value
+        return values
+
+    def set(self, spec: str) -> None:
+        subprocess.run(["indi_setprop", "-p", str(self.port), f"{DEVICE}.{spec}"],
+                       check=True, capture_output=True, timeout=15)
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGTERM)  # indiserver and the driver it started
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait(5)
+
+
+def _until(condition: Callable[[], object], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return
+        time.sleep(0.25)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+@pytest.fixture
+def mount_model() -> MountModel:
+    return MountModel(ScaledClock(speed=SPEED))
+
+
+@pytest.fixture
+def emulator(mount_model: MountModel) -> Iterator[EmulatorServer]:
+    server = EmulatorServer(mount_model, port=0, baud=9600).start()
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+@pytest.fixture
+def indi(tmp_path: Path, emulator: EmulatorServer) -> Iterator[Indi]:
+    driver = Indi(tmp_path)
+    try:
+        _until(lambda: driver.get("CONNECTION.CONNECT"), 20, "the INDI driver to start")
+        driver.set(f"DEVICE_ADDRESS.ADDRESS;PORT=127.0.0.1;{emulator.port}")
+        driver.set("CONNECTION.CONNECT=On")
+        _until(lambda: driver.get("CONNECTION.CONNECT").get("CONNECTION.CONNECT") == "On", 20, "connection")
+        _until(lambda: "GUIDE_RATE.RATE" in driver.get("GUIDE_RATE.RATE"), 20, "the driver's start-up queries")
+        yield driver
+    finally:
+        driver.stop()
+
+
+def _coords(indi: Indi) -> tuple[float, float, str]:
+    values = indi.get("EQUATORIAL_EOD_COORD.*", "EQUATORIAL_EOD_COORD._STATE")
+    return (float(values["EQUATORIAL_EOD_COORD.RA"]), float(values["EQUATORIAL_EOD_COORD.DEC"]),
+            values["EQUATORIAL_EOD_COORD._STATE"])
+
+
+def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer, mount_model: MountModel) -> None:
+    model = mount_model
+    # 1. It read the power-up state: home at the pole, factory site, guide rate.
+    assert emulator.stats()["total"]["exchanges"] > 10
+    values = indi.get("GEOGRAPHIC_COORD.*", "GUIDE_RATE.RATE", "TELESCOPE_TRACK_STATE.TRACK_OFF")
+    assert float(values["GEOGRAPHIC_COORD.LAT"]) == pytest.approx(31.2614, abs=1e-3)
+    assert float(values["GEOGRAPHIC_COORD.LONG"]) == pytest.approx(120.7197, abs=1e-3)  # sign handled
+    assert float(values["GUIDE_RATE.RATE"]) == 0.5
+    assert values["TELESCOPE_TRACK_STATE.TRACK_OFF"] == "On"
+    ra, dec, _ = _coords(indi)
+    assert dec == 90.0
+    assert sky.wrap_hours_12(ra - model.position()[0]) == pytest.approx(0.0, abs=0.01)
+
+    # 2. Time and site: INDI negates the offset for :SG and the longitude for :Sg.
+    now = datetime.now(timezone.utc)
+    indi.set(f"TIME_UTC.UTC;OFFSET={now:%Y-%m-%dT%H:%M:%S};3")
+    indi.set("GEOGRAPHIC_COORD.LAT;LONG;ELEV=48.1;11.5;500")
+    _until(lambda: model.snapshot()["initialized"] and model.latitude() == pytest.approx(48.1, abs=1e-3),
+           20, "time and site to reach the mount")
+    assert model.utc_offset() == 3.0
+    assert model.longitude() == pytest.approx(11.5, abs=1e-3)
+    assert abs((datetime.fromisoformat(model.snapshot()["mount_utc"]) - now).total_seconds()) < 600
+
+    # 3. GOTO (slew and track) to a point two hours east of the meridian.
+    target_ra = round(sky.ra_from_hour_angle(model.sidereal_time(), -2.0), 4)
+    indi.set("ON_COORD_SET.TRACK=On")
+    indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={target_ra};40")
+    _until(model.slewing, 10, "the slew to start")
+    _until(lambda: not model.slewing() and _coords(indi)[2] == "Ok", 60, "the slew to end in INDI")
+    assert sky.angular_separation(*model.position(), *model.target()) < 1 / 3600
+    ra, dec, _ = _coords(indi)
+    assert sky.wrap_hours_12(ra - target_ra) == pytest.approx(0.0, abs=2 / 3600)
+    assert dec == pytest.approx(40.0, abs=1 / 3600)
+    values = indi.get("TELESCOPE_TRACK_STATE.TRACK_ON", "TELESCOPE_PIER_SIDE.PIER_WEST")
+    assert values == {"TELESCOPE_TRACK_STATE.TRACK_ON": "On", "TELESCOPE_PIER_SIDE.PIER_WEST": "On"}
+
+    # 4. Sync to a nearby position: the mount's reported coordinates jump there.
+    indi.set("ON_COORD_SET.SYNC=On")
+    indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={target_ra + 0.01};40.1")
+    _until(lambda: model.snapshot()["alignment_points"] == 1, 10, "the sync")
+    ra_now, dec_now = model.position()
+    assert sky.angular_separation(ra_now, dec_now, *model.target()) < 1 / 3600
+    assert sky.angular_separation(ra_now, dec_now, target_ra + 0.01, 40.1) < 10 / 3600  # INDI's :Sr rounding
+
+    # 5. Guide north (INDI 1.9.9 times :RG#/:Mn#/:Qn# itself): Dec goes up about 7.5".
+    dec_before = model.position()[1]
+    indi.set("TELESCOPE_TIMED_GUIDE_NS.TIMED_GUIDE_N;TIMED_GUIDE_S=1000;0")
+    _until(lambda: model.position()[1] > dec_before + 5 * SPEED / 3600, 10, "the guide pulse")
+
+    # 6. Abort a GOTO: the slew ends short of its target.
+    indi.set("ON_COORD_SET.TRACK=On")
+    far_ra = round(sky.ra_from_hour_angle(model.sidereal_time(), 3.0), 4)
+    indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={far_ra};10")
+    _until(model.slewing, 10, "the second slew to start")
+    indi.set("TELESCOPE_ABORT_MOTION.ABORT=On")
+    _until(lambda: not model.slewing(), 10, "the abort")
+    assert sky.angular_separation(*model.position(), *model.target()) > 5.0
+
+    # 7. Home: INDI waits for H in :GU#; tracking ends off, at the pole, :Gm# N.
+    indi.set("GO_HOME.GO=On")
+    _until(lambda: indi.get("GO_HOME._STATE").get("GO_HOME._STATE") == "Ok", 60, "home to finish in INDI")
+    assert model.pier_letter() == "N"
+    assert model.tracking_state() == (False, None)
+    assert indi.get("TELESCOPE_TRACK_STATE.TRACK_OFF")["TELESCOPE_TRACK_STATE.TRACK_OFF"] == "On"
+    assert _coords(indi)[1] == 90.0
