@@ -404,7 +404,11 @@ class Link:
                 if self._closing.is_set():
                     return
                 self._open_port()
-            except LinkError as exc:
+                # A port that opens is not yet a mount that answers (a WiFi AP can accept and then
+                # reset): only a correct probe reply counts as reconnected.
+                self._resynchronise()
+            except (LinkError, serial.SerialException, OSError) as exc:
+                self._close_port()
                 self._set_state(LinkState.RECONNECTING, str(exc))
                 continue
             finally:

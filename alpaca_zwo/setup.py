@@ -334,7 +334,7 @@ def _number(body: dict[str, Any], key: str, lo: float | None = None, hi: float |
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ApiError(400, f"{key} must be a number")
     if (lo is not None and value < lo) or (hi is not None and value > hi):
-        raise ApiError(400, f"{key} {value} is outside {lo:g}..{hi:g}")
+        raise ApiError(400, f"{key} {value} is outside {lo}..{hi}")
     return float(value)
 
 
@@ -581,93 +581,101 @@ class Api:
         }
 
     def change_settings(self, index: int, telescope: Telescope, body: dict[str, Any]) -> MountSettings | None:
-        """Apply the groups present in ``body``; file-held ones atomically, then the mount-held ones."""
+        """Apply the groups present in ``body``, all or nothing as far as validation can tell.
+
+        Everything is checked before anything is applied, so a typo in one field never leaves the
+        mount changed and the file not (or the reverse). The mount goes first because it is the
+        one that can still refuse; the file is then written in one atomic update.
+        """
         file_groups = {k: body[k] for k in ("site", "park", "limits", "safety", "device") if k in body}
         mount_groups = {k: body[k] for k in ("meridian", "mount_limits", "heavy_duty", "buzzer") if k in body}
         unknown = set(body) - set(file_groups) - set(mount_groups)
         if unknown:
             raise ApiError(400, f"unknown settings group(s): {', '.join(sorted(unknown))}")
-        if mount_groups and not telescope.mount.running:
-            raise ApiError(409, "these settings are stored in the mount: connect the mount first")
-        if "meridian" in mount_groups:
-            meridian = self._meridian_from(mount_groups["meridian"], index)
-            file_groups.setdefault("limits", {})
-            if not isinstance(file_groups["limits"], dict):
-                raise ApiError(400, "limits must be an object")
-            file_groups["limits"] = {**file_groups["limits"], "meridian_limit_deg": meridian.limit_degrees,
-                                     "meridian_track_past": meridian.track_after}
-        with self._settings_lock:
-            if file_groups:
-                self._update_file(index, telescope, file_groups)
-            if mount_groups:
-                self._update_mount(telescope, mount_groups)
-            return self.read_mount_settings(index, telescope)
-
-    def _meridian_from(self, raw: Any, index: int) -> MeridianSettings:
-        if not isinstance(raw, dict):
-            raise ApiError(400, "meridian must be an object")
-        cached = self._mount_settings.get(index)
-        flip = cached.meridian.flip if cached is not None and cached.meridian is not None else False
-        return MeridianSettings(flip=flip, track_after=_flag(raw, "track_after"),
-                                limit_degrees=_integer(raw, "limit_degrees", -15, 15))
-
-    def _update_file(self, index: int, telescope: Telescope, groups: dict[str, Any]) -> None:
-        for name, group in groups.items():
+        for name, group in file_groups.items():
             if not isinstance(group, dict):
                 raise ApiError(400, f"{name} must be an object")
-        site = groups.pop("site", None)
-        device = groups.pop("device", None)
-        site_values = _site_values(site) if site else {}
+        if mount_groups and not telescope.mount.running:
+            raise ApiError(409, "these settings are stored in the mount: connect the mount first")
+        commands = self._mount_commands(index, telescope, mount_groups)
+        meridian = next((value for name, value in commands if name == "meridian"), None)
+        if isinstance(meridian, MeridianSettings):
+            # Mirrored in the file, so the setting is known (and shown) while the mount is away.
+            file_groups["limits"] = {**file_groups.get("limits", {}), "meridian_limit_deg": meridian.limit_degrees,
+                                     "meridian_track_past": meridian.track_after}
+        site = _site_values(file_groups.pop("site", {}))
+        device = file_groups.pop("device", None)
+        if device is not None and set(device) - {"name"}:
+            raise ApiError(400, "only the device name can be changed here")
 
         def change(current: Settings) -> Settings:
             data = settings_to_dict(current)
-            for name, group in groups.items():
+            for name, group in file_groups.items():
                 data[name] = {**data[name], **group}
             if device is not None:
-                data["devices"][index] = {**data["devices"][index], **{k: v for k, v in device.items()
-                                                                       if k == "name"}}
+                data["devices"][index] = {**data["devices"][index], **device}
             return settings_from_dict(data, "setup page")
 
-        if groups or device is not None:
-            try:
+        with self._settings_lock:
+            if file_groups or device is not None:
+                try:
+                    change(self.server.settings)  # dry run: refuse bad values before the mount is touched
+                except (TypeError, ValueError) as exc:
+                    raise ApiError(400, f"invalid setting: {exc}") from None
+            for name, value in commands:
+                self._apply_mount(telescope, name, value)
+            if file_groups or device is not None:
                 self.server.store.update(change)
-            except (TypeError, ValueError) as exc:
-                raise ApiError(400, f"invalid setting: {exc}") from None
-        if site_values:
-            # Through the Telescope, so the mount gets the new site at once and clients read the same values.
-            setters: dict[str, Callable[[float], None]] = {
-                "latitude": telescope.set_site_latitude, "longitude": telescope.set_site_longitude,
-                "elevation": telescope.set_site_elevation}
-            for key, value in site_values.items():
-                setters[key](value)
+            if site:
+                # Through the Telescope, so the mount gets the new site at once and clients read the same values.
+                setters: dict[str, Callable[[float], None]] = {
+                    "latitude": telescope.set_site_latitude, "longitude": telescope.set_site_longitude,
+                    "elevation": telescope.set_site_elevation}
+                for key, value in site.items():
+                    setters[key](value)
+            return self.read_mount_settings(index, telescope) if mount_groups else self._mount_settings.get(index)
 
-    def _update_mount(self, telescope: Telescope, groups: dict[str, Any]) -> None:
-        mount = telescope.mount
+    def _mount_commands(self, index: int, telescope: Telescope, groups: dict[str, Any]) -> list[tuple[str, Any]]:
+        """The mount-held settings as checked (name, value) pairs, in the order they are sent."""
+        commands: list[tuple[str, Any]] = []
         if "meridian" in groups:
-            meridian = self._meridian_from(groups["meridian"], telescope.device_index)
-            mount.set_meridian(meridian)
-            _tell_telescope_meridian(telescope, meridian)
-            log.info("setup page: meridian settings %s", meridian)
+            raw = groups["meridian"]
+            if not isinstance(raw, dict):
+                raise ApiError(400, "meridian must be an object")
+            cached = self._mount_settings.get(index)
+            flip = cached.meridian.flip if cached is not None and cached.meridian is not None else False
+            commands.append(("meridian", MeridianSettings(flip=flip, track_after=_flag(raw, "track_after"),
+                                                          limit_degrees=_integer(raw, "limit_degrees", -15, 15))))
         if "mount_limits" in groups:
             raw = groups["mount_limits"]
             if not isinstance(raw, dict):
                 raise ApiError(400, "mount_limits must be an object")
-            enabled = _flag(raw, "enabled") if "enabled" in raw else None
-            upper = _integer(raw, "upper", 60, 90) if "upper" in raw else None
-            lower = _integer(raw, "lower", 0, 30) if "lower" in raw else None
-            if upper is not None:
-                mount.set_upper_limit(upper)
-            if lower is not None:
-                mount.set_lower_limit(lower)
-            if enabled is not None:
-                mount.set_limits_enabled(enabled)
-            log.info("setup page: mount altitude limits enabled=%s upper=%s lower=%s", enabled, upper, lower)
+            unknown = set(raw) - {"enabled", "upper", "lower"}
+            if unknown:
+                raise ApiError(400, f"unknown mount_limits key(s): {', '.join(sorted(unknown))}")
+            if "upper" in raw:
+                commands.append(("upper_limit", _integer(raw, "upper", 60, 90)))
+            if "lower" in raw:
+                commands.append(("lower_limit", _integer(raw, "lower", 0, 30)))
+            if "enabled" in raw:
+                commands.append(("limits_enabled", _flag(raw, "enabled")))
         if "heavy_duty" in groups:
-            mount.set_heavy_duty(_flag(groups, "heavy_duty"))
-            log.info("setup page: heavy-duty mode %s", groups["heavy_duty"])
+            commands.append(("heavy_duty", _flag(groups, "heavy_duty")))
         if "buzzer" in groups:
-            mount.set_buzzer(_integer(groups, "buzzer", 0, 2))
-            log.info("setup page: buzzer level %s", groups["buzzer"])
+            commands.append(("buzzer", _integer(groups, "buzzer", 0, 2)))
+        return commands
+
+    @staticmethod
+    def _apply_mount(telescope: Telescope, name: str, value: Any) -> None:
+        mount = telescope.mount
+        setters: dict[str, Callable[[Any], None]] = {
+            "meridian": mount.set_meridian, "upper_limit": mount.set_upper_limit,
+            "lower_limit": mount.set_lower_limit, "limits_enabled": mount.set_limits_enabled,
+            "heavy_duty": mount.set_heavy_duty, "buzzer": mount.set_buzzer}
+        setters[name](value)
+        if name == "meridian":
+            _tell_telescope_meridian(telescope, value)
+        log.info("setup page: mount %s set to %s", name.replace("_", " "), value)
 
     def server_view(self) -> dict[str, Any]:
         server = self.server

@@ -419,6 +419,9 @@ def test_bad_settings_change_nothing(client: Client) -> None:
         {"safety": {"not_a_key": 1}},
         {"colour": "red"},
         {"park": 3},
+        {"device": {"unique_id": "mine"}},
+        {"device": {"name": ""}},
+        {"site": {"latitude": 10}, "park": {"ha_hours": 13}},
     ]
     for body in cases:
         r = client.post("/setup/api/telescope/0/settings", body)
@@ -456,6 +459,10 @@ def test_mount_settings_round_trip(connected: Client) -> None:
                  {"meridian": {"track_after": True, "limit_degrees": 20}}):
         r = connected.post("/setup/api/telescope/0/settings", body)
         assert r.status_code == 400, body
+    # All or nothing: a bad file-held value stops the mount-held ones from being sent.
+    r = connected.post("/setup/api/telescope/0/settings", {"buzzer": 2, "limits": {"min_altitude_deg": 99}})
+    assert r.status_code == 400
+    assert connected.settings()["mount"]["buzzer"] == 0
     connected.change({"meridian": {"track_after": False, "limit_degrees": 0}, "mount_limits": {"enabled": False},
                       "heavy_duty": False, "buzzer": 1})
     assert connected.get("destinationsideofpier", RightAscension=ra, Declination=40) == int(sky.PierSide.EAST)

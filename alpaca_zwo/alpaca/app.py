@@ -51,15 +51,6 @@ class _Endpoint(NamedTuple):
     has_value: bool
 
 
-class _Call(NamedTuple):
-    """What the AlpacaError handler needs to shape its reply; stored on ``req.context``."""
-
-    endpoint: _Endpoint
-    ctid: int
-    client: ClientKey
-    started: float
-
-
 def _bind(device: AlpacaDevice, members: Iterable[Member], case_sensitive: bool) -> dict[str, _Endpoint]:
     table = {}
     for m in members:
@@ -117,12 +108,13 @@ class DeviceApi:
             if text is None:
                 text = param.default
                 if text is None:
-                    raise missing(param, fields, case_sensitive=req.method == "PUT")
+                    raise missing(param, fields, case_sensitive=endpoint.member.verb == "PUT")
             args.append(parse(param.name, text))
 
         client = self._client_key(req.remote_addr, client_id)
         self._registry.touch(client, req.user_agent or "")
-        req.context.alpaca = _Call(endpoint, ctid, client, started)
+        # What the AlpacaError handler needs to shape its reply (a plain tuple: this is per request).
+        req.context.alpaca = (endpoint, ctid, client, started, args)
         token = current_client.set(client)
         try:
             if not args:
@@ -143,7 +135,7 @@ class DeviceApi:
             resp.data = method_body(ctid, stid)
         resp.content_type = JSON
         if endpoint.member.verb == "PUT" and log.isEnabledFor(_INFO):
-            log.info("%s %s by %s: ok", endpoint.member.name, _describe(endpoint, args), client)
+            log.info("%s(%s) by %s: ok", endpoint.member.name, _describe(endpoint, args), client)
         if access_log.isEnabledFor(_DEBUG):
             access_log.debug("%s %s client=%s ctid=%d stid=%d -> 200 (%.2f ms)", req.method, req.path,
                              client, ctid, stid, (perf_counter() - started) * 1000)
@@ -151,7 +143,7 @@ class DeviceApi:
     def handle_alpaca_error(self, req: falcon.Request, resp: falcon.Response, ex: AlpacaError,
                             params: Any) -> None:
         """The one place an ASCOM failure becomes HTTP 200 + ErrorNumber/ErrorMessage."""
-        call: _Call | None = getattr(req.context, "alpaca", None)
+        call: tuple[_Endpoint, int, ClientKey, float, list[object]] | None = getattr(req.context, "alpaca", None)
         number = ex.number or 0x500  # 0 would read as success to every client
         message = ex.message or type(ex).__name__
         stid = self._counter.next()
@@ -160,13 +152,14 @@ class DeviceApi:
         if call is None:  # raised outside a device call (e.g. by an extra route)
             resp.data = error_body(False, 0, stid, number, message)
             return
-        resp.data = error_body(call.endpoint.has_value, call.ctid, stid, number, message)
-        if call.endpoint.member.verb == "PUT":
-            log.info("%s by %s: error 0x%X %s", call.endpoint.member.name, call.client, number, message)
+        endpoint, ctid, client, started, args = call
+        resp.data = error_body(endpoint.has_value, ctid, stid, number, message)
+        if endpoint.member.verb == "PUT" and log.isEnabledFor(_INFO):
+            log.info("%s(%s) by %s: error 0x%X %s", endpoint.member.name, _describe(endpoint, args), client,
+                     number, message)
         if access_log.isEnabledFor(_DEBUG):
             access_log.debug("%s %s client=%s ctid=%d stid=%d -> 200 error 0x%X (%.2f ms)", req.method,
-                             req.path, call.client, call.ctid, stid, number,
-                             (perf_counter() - call.started) * 1000)
+                             req.path, client, ctid, stid, number, (perf_counter() - started) * 1000)
 
     # --- helpers ----------------------------------------------------------------------------------
     def _endpoint(self, device_type: str, device_number: str, member: str, verb: int) -> _Endpoint:
@@ -211,7 +204,7 @@ class DeviceApi:
 
 
 def _describe(endpoint: _Endpoint, args: list[object]) -> str:
-    return " ".join(f"{p.name}={a!r}" for (_, p, _), a in zip(endpoint.fields, args, strict=True))
+    return ", ".join(f"{p.name}={a!r}" for (_, p, _), a in zip(endpoint.fields, args, strict=True))
 
 
 class BasicAuth:

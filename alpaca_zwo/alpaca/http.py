@@ -12,6 +12,7 @@ import threading
 from typing import Any
 
 from waitress import wasyncore
+from waitress.channel import HTTPChannel
 from waitress.server import BaseWSGIServer, create_server
 from waitress.trigger import trigger
 
@@ -23,7 +24,7 @@ class HttpServer:
 
     def __init__(self, app: Any, host: str = "0.0.0.0", port: int = 0, *, threads: int = 8,
                  channel_timeout: int = 60, connection_limit: int = 100,
-                 max_request_body_size: int | None = None) -> None:
+                 max_request_body_size: int = 1 << 20) -> None:
         self._map: dict[int, Any] = {}
         options: dict[str, Any] = {
             "host": host,
@@ -35,9 +36,10 @@ class HttpServer:
             # No reverse proxy is trusted, so X-Forwarded-* cannot spoof a client's address.
             "clear_untrusted_proxy_headers": True,
             "ident": "alpaca-zwo",
+            # waitress buffers a whole body (to disk past 512 KiB) before the app sees it; Alpaca
+            # bodies are a few hundred bytes, so refuse big ones at the door (413).
+            "max_request_body_size": max_request_body_size,
         }
-        if max_request_body_size is not None:
-            options["max_request_body_size"] = max_request_body_size
         self._server = create_server(app, map=self._map, **options)
         # One wake-up pipe per listener (a host name may resolve to several); any reaches the loop.
         self._triggers: list[trigger] = [d for d in self._map.values() if isinstance(d, trigger)]
@@ -90,6 +92,8 @@ class HttpServer:
             elif isinstance(dispatcher, BaseWSGIServer):
                 # The listening socket only: BaseWSGIServer.close() would close the trigger too.
                 wasyncore.dispatcher.close(dispatcher)
+            elif isinstance(dispatcher, HTTPChannel):
+                dispatcher.handle_close()  # also wakes a worker waiting to write into a full buffer
             else:
                 dispatcher.close()
         self._map.clear()

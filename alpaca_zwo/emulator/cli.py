@@ -103,6 +103,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         custom_tracking=args.custom_tracking,
         gmza_south_azimuth=args.gmza_south_azimuth,
     )
+    # Handlers first: a supervisor may send SIGTERM as soon as it has read the endpoint lines.
+    stop = threading.Event()
+
+    def _on_signal(_signum: int, _frame: FrameType | None) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, _on_signal)
+    signal.signal(signal.SIGINT, _on_signal)
+
     clock = ScaledClock(speed=args.speed, start_utc=args.start_time)
     model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized)
     server = EmulatorServer(model, host=args.host, port=args.port, baud=args.baud, pty=args.pty,
@@ -114,7 +123,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     control: ControlServer | None = None
     if args.control_port is not None:
-        control = ControlServer(server, port=args.control_port).start()
+        try:
+            control = ControlServer(server, port=args.control_port).start()
+        except OSError as exc:
+            print(f"alpaca-zwo-emulator: cannot open control port {args.control_port}: {exc}", file=sys.stderr)
+            server.stop()
+            return 2
 
     print(f"alpaca-zwo-emulator: {firmware.model} firmware {firmware.version}, baud {server.baud}, "
           f"speed {clock.speed:g}x, start {clock.now().isoformat(timespec='seconds')}")
@@ -125,13 +139,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"control 127.0.0.1:{control.port}")
     sys.stdout.flush()
 
-    stop = threading.Event()
-
-    def _on_signal(_signum: int, _frame: FrameType | None) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, _on_signal)
-    signal.signal(signal.SIGINT, _on_signal)
     try:
         while not stop.wait(0.5):
             pass

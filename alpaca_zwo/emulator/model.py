@@ -165,6 +165,7 @@ class _Slew:
     p0: float  # primary target at t0
     p_rate: float  # primary target velocity (sidereal for a GOTO: the target's HA grows)
     s: float
+    side: sky.PierSide = sky.PierSide.WEST  # the pointing side at arrival (ambiguous at the pole)
     done: list[bool] = field(default_factory=lambda: [False, False])
 
     def target(self, axis: int, t: float) -> float:
@@ -375,6 +376,7 @@ class MountModel:
 
     def _arrive(self, slew: _Slew) -> None:
         self._slew = None
+        self._last_side = slew.side
         if slew.kind == "goto":
             self._tracking = True  # GOTO arrival switches tracking on, at the selected rate
             self._track_error = None
@@ -656,8 +658,7 @@ class MountModel:
                 p, s = (raw_ha - 12.0) * 15.0, 180.0 - raw_dec
             else:
                 p, s = raw_ha * 15.0, raw_dec
-            self._start_slew(_Slew("goto", self._t, p, SIDEREAL_DEG_S, s))
-            self._last_side = side
+            self._start_slew(_Slew("goto", self._t, p, SIDEREAL_DEG_S, s, side))
             return 0
 
     def _start_slew(self, slew: _Slew) -> None:
@@ -683,7 +684,8 @@ class MountModel:
                 return False
             p, s = self._persist.custom_park or (PARK_P, PARK_S)
             self._persist.parked = True
-            self._start_slew(_Slew("park", self._t, p, 0.0, s))
+            side = sky.PierSide.EAST if s > 90.0 else sky.PierSide.WEST
+            self._start_slew(_Slew("park", self._t, p, 0.0, s, side))
             return True
 
     def unpark(self) -> bool:

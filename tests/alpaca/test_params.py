@@ -6,6 +6,7 @@ import json
 import math
 import threading
 from datetime import datetime, timedelta, timezone
+from urllib.parse import parse_qsl
 
 import pytest
 from hypothesis import given
@@ -24,6 +25,7 @@ from alpaca_zwo.alpaca.params import (
     parse_uint32,
     parse_utc_date,
     query_fields,
+    split_pairs,
 )
 from alpaca_zwo.alpaca.render import (
     RENDERERS,
@@ -200,9 +202,10 @@ def test_bodies_have_exact_keys_in_order() -> None:
     assert "Value" not in json.loads(error_body(False, 3, 4, 0x401, "bad"))
 
 
-def test_nan_is_refused() -> None:
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf, [1.0, math.nan], {"x": math.inf}])
+def test_nan_is_refused(value: object) -> None:
     with pytest.raises(ValueError):
-        value_body(math.nan, 0, 1)
+        value_body(value, 0, 1)
 
 
 def test_transaction_counter_wraps_to_one() -> None:
@@ -226,3 +229,22 @@ def test_transaction_counter_is_unique_across_threads() -> None:
     everything = [n for mine in seen for n in mine]
     assert sorted(everything) == list(range(1, 16001))
     assert all(mine == sorted(mine) for mine in seen)
+
+
+_QUERY_PIECES = st.sampled_from([*"aZ09=&+%;._-~ é", "%20", "%2", "%zz", "%C3%A9", "%26", "%FF"])
+_QUERY_TEXT = st.lists(_QUERY_PIECES, max_size=20).map("".join)
+
+
+@given(_QUERY_TEXT)
+def test_split_pairs_matches_parse_qsl(text: str) -> None:
+    assert split_pairs(text) == parse_qsl(text, keep_blank_values=True)
+
+
+@given(st.one_of(st.booleans(), st.integers(), st.floats(allow_nan=False, allow_infinity=False), st.text(),
+                 st.lists(st.integers()), st.none()))
+def test_value_body_is_the_json_of_the_envelope(value: object) -> None:
+    expected = {"Value": value, "ClientTransactionID": 7, "ServerTransactionID": 9, "ErrorNumber": 0,
+                "ErrorMessage": ""}
+    body = value_body(value, 7, 9)
+    assert json.loads(body) == expected
+    assert body == json.dumps(expected, separators=(",", ":")).encode()

@@ -629,7 +629,15 @@ def test_logging(alpaca: Alpaca, caplog: pytest.LogCaptureFixture) -> None:
     assert "127.0.0.1#123456" in access[0] and "-> 200" in access[0] and "ms" in access[0]
     assert "-> 400" in access[2]
     info = [r.getMessage() for r in caplog.records if r.levelno == logging.INFO]
-    assert info == ["Tracking Tracking=True by 127.0.0.1#123456: ok"]
+    assert info == ["Tracking(Tracking=True) by 127.0.0.1#123456: ok"]
+
+
+def test_put_errors_are_logged_at_info(alpaca: Alpaca, caplog: pytest.LogCaptureFixture) -> None:
+    with caplog.at_level(logging.INFO, logger="alpaca_zwo.alpaca"):
+        alpaca.put("siteelevation", {**OK_IDS, "SiteElevation": "-400"})
+    assert [r.getMessage() for r in caplog.records] == [
+        "SiteElevation(SiteElevation=-400.0) by 127.0.0.1#123456: error 0x401 "
+        "SiteElevation -400.0 is outside -300..10000"]
 
 
 def test_access_log_suppressible(alpaca: Alpaca, caplog: pytest.LogCaptureFixture) -> None:
