@@ -116,7 +116,9 @@ class AlpacaZwoServer:
                          basic_auth=auth, extra_routes=extra)
         host = self.overrides.host or server.host
         port = server.port if self.overrides.port is None else self.overrides.port
-        self.http = HttpServer(app, host, port, threads=server.threads)
+        # waitress refuses oversize bodies before reading them in; the app checks again per request.
+        self.http = HttpServer(app, host, port, threads=server.threads, max_request_body_size=server.max_body_bytes)
+        logging.getLogger("waitress.queue").setLevel(logging.ERROR)  # "task queue depth" under load is expected
         self.http.start()
 
         discovery_port = server.discovery_port if self.overrides.discovery_port is None else self.overrides.discovery_port

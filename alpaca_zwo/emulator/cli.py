@@ -53,34 +53,61 @@ def build_parser() -> argparse.ArgumentParser:
     net.add_argument("--pty", action="store_true", help="also serve a pseudo-terminal and print its path")
     net.add_argument("--pty-link", metavar="PATH", help="keep a symlink at PATH pointing at the current pty")
     net.add_argument("--baud", type=int, default=9600, help="line rate to pace bytes at (default 9600; 0 = unpaced)")
-    net.add_argument("--control-port", type=int, metavar="N",
-                     help="loopback control channel for faults and inspection (0 picks a free port)")
+    net.add_argument(
+        "--control-port",
+        type=int,
+        metavar="N",
+        help="loopback control channel for faults and inspection (0 picks a free port)",
+    )
 
     sky = parser.add_argument_group("emulated universe")
     sky.add_argument("--speed", type=_positive, default=1.0, help="run the clock F times faster than real time")
     sky.add_argument("--start-time", type=_iso_utc, metavar="ISO8601", help="true UTC at start (default now)")
-    sky.add_argument("--latitude", type=float, default=FACTORY_LATITUDE,
-                     help="site stored in the mount, degrees north (default: the factory Suzhou site)")
-    sky.add_argument("--longitude", type=float, default=FACTORY_LONGITUDE,
-                     help="site stored in the mount, degrees EAST positive (default: the factory site)")
-    sky.add_argument("--initialized", action="store_true",
-                     help="start as if a client had already set date, time (UTC) and site")
+    sky.add_argument(
+        "--latitude",
+        type=float,
+        default=FACTORY_LATITUDE,
+        help="site stored in the mount, degrees north (default: the factory Suzhou site)",
+    )
+    sky.add_argument(
+        "--longitude",
+        type=float,
+        default=FACTORY_LONGITUDE,
+        help="site stored in the mount, degrees EAST positive (default: the factory site)",
+    )
+    sky.add_argument(
+        "--initialized", action="store_true", help="start as if a client had already set date, time (UTC) and site"
+    )
 
     fw = parser.add_argument_group("firmware variant")
     defaults = FirmwareVariant()
     fw.add_argument("--model", choices=("AM5", "AM3", "AM5N", "AM7"), default=defaults.model)
     fw.add_argument("--firmware", default=defaults.version, metavar="X.Y.Z", help="version reported by :GV#")
-    fw.add_argument("--home-flag", choices=("after_home", "never", "always_at_home"), default=defaults.home_flag,
-                    help="when :GU# shows H")
-    fw.add_argument("--gt-mapping", choices=("english", "chinese"), default=defaults.gt_mapping,
-                    help=":GT# digits: english 1=solar 2=lunar, chinese 1=lunar 2=solar")
-    fw.add_argument("--gps-reply", choices=("digits", "empty"), default=defaults.gps_reply,
-                    help=":Gps# answers 0/1/2 or an empty #")
+    fw.add_argument(
+        "--home-flag",
+        choices=("after_home", "never", "always_at_home"),
+        default=defaults.home_flag,
+        help="when :GU# shows H",
+    )
+    fw.add_argument(
+        "--gt-mapping",
+        choices=("english", "chinese"),
+        default=defaults.gt_mapping,
+        help=":GT# digits: english 1=solar 2=lunar, chinese 1=lunar 2=solar",
+    )
+    fw.add_argument(
+        "--gps-reply", choices=("digits", "empty"), default=defaults.gps_reply, help=":Gps# answers 0/1/2 or an empty #"
+    )
     fw.add_argument("--hp-reply", choices=("none", "1#"), default="none", help=":hP# answers nothing or 1#/0#")
-    fw.add_argument("--gh-reply", choices=("empty", "zero", "homed"), default=defaults.gh_reply,
-                    help=":Gh# answers #, 0#, or 1#/0# by whether a home completed")
-    fw.add_argument("--compound-goto-sync", action="store_true",
-                    help=":SMeq/:SMMC work as documented (real firmware answers e2#)")
+    fw.add_argument(
+        "--gh-reply",
+        choices=("empty", "zero", "homed"),
+        default=defaults.gh_reply,
+        help=":Gh# answers #, 0#, or 1#/0# by whether a home completed",
+    )
+    fw.add_argument(
+        "--compound-goto-sync", action="store_true", help=":SMeq/:SMMC work as documented (real firmware answers e2#)"
+    )
     fw.add_argument("--custom-tracking", action="store_true", help=":STRnn# custom rate works (real: no reply)")
     fw.add_argument("--gmza-south-azimuth", action="store_true", help=":GMZA# azimuth measured from south")
 
@@ -114,8 +141,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     clock = ScaledClock(speed=args.speed, start_utc=args.start_time)
     model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized)
-    server = EmulatorServer(model, host=args.host, port=args.port, baud=args.baud, pty=args.pty,
-                            pty_link=args.pty_link)
+    server = EmulatorServer(model, host=args.host, port=args.port, baud=args.baud, pty=args.pty, pty_link=args.pty_link)
     try:
         server.start()
     except OSError as exc:
@@ -130,8 +156,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             server.stop()
             return 2
 
-    print(f"alpaca-zwo-emulator: {firmware.model} firmware {firmware.version}, baud {server.baud}, "
-          f"speed {clock.speed:g}x, start {clock.now().isoformat(timespec='seconds')}")
+    print(
+        f"alpaca-zwo-emulator: {firmware.model} firmware {firmware.version}, baud {server.baud}, "
+        f"speed {clock.speed:g}x, start {clock.now().isoformat(timespec='seconds')}"
+    )
     print(f"tcp {args.host}:{server.port}")
     if server.pty_path:
         print(f"pty {server.pty_path}")

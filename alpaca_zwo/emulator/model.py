@@ -475,9 +475,7 @@ class MountModel:
         return (self._local_now() - timedelta(hours=hours)).replace(tzinfo=timezone.utc)
 
     def _lst(self) -> float:
-        return sky.wrap_hours_24(
-            sky.local_sidereal_time(self._mount_utc(), self._longitude) + self._lst_offset
-        )
+        return sky.wrap_hours_24(sky.local_sidereal_time(self._mount_utc(), self._longitude) + self._lst_offset)
 
     def _reported(self) -> tuple[float, float]:
         ha, dec = self._raw_ha_dec()

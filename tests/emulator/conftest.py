@@ -62,5 +62,3 @@ def ready(mount: MountClient, clock: ManualClock) -> MountClient:
     """A client on a mount whose date, time (UTC) and site have been set."""
     initialize(mount, clock)
     return mount
-
-

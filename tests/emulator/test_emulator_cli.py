@@ -25,7 +25,11 @@ class Emulator:
         env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "alpaca_zwo.emulator", "--port", "0", *args],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+            cwd=ROOT,
         )
         self.endpoints: dict[str, str] = {}
         assert self.proc.stdout is not None
@@ -33,8 +37,10 @@ class Emulator:
             match = re.fullmatch(r"(tcp|pty|control) (\S+)\n", line)
             if match:
                 self.endpoints[match.group(1)] = match.group(2)
-            if "tcp" in self.endpoints and ("--control-port" not in args or "control" in self.endpoints) and (
-                "--pty" not in args or "pty" in self.endpoints
+            if (
+                "tcp" in self.endpoints
+                and ("--control-port" not in args or "control" in self.endpoints)
+                and ("--pty" not in args or "pty" in self.endpoints)
             ):
                 break
         else:
@@ -79,10 +85,31 @@ def start_emulator() -> Iterator[type[Emulator]]:
 
 
 def test_cli_serves_tcp_and_control_and_stops_cleanly(start_emulator: type[Emulator]) -> None:
-    emulator = start_emulator("--control-port", "0", "--baud", "0", "--initialized",
-                              "--start-time", "2025-03-20T14:00:00Z", "--speed", "2",
-                              "--latitude", "52.5", "--longitude", "13.4", "--model", "AM3", "--firmware", "1.6.3",
-                              "--gt-mapping", "chinese", "--hp-reply", "1#", "--home-flag", "always_at_home")
+    emulator = start_emulator(
+        "--control-port",
+        "0",
+        "--baud",
+        "0",
+        "--initialized",
+        "--start-time",
+        "2025-03-20T14:00:00Z",
+        "--speed",
+        "2",
+        "--latitude",
+        "52.5",
+        "--longitude",
+        "13.4",
+        "--model",
+        "AM3",
+        "--firmware",
+        "1.6.3",
+        "--gt-mapping",
+        "chinese",
+        "--hp-reply",
+        "1#",
+        "--home-flag",
+        "always_at_home",
+    )
     client = MountClient(emulator.port())
     try:
         assert client.ask(":GVP#") == "AM3#"
@@ -132,7 +159,13 @@ def test_cli_pty_option_prints_a_usable_device(start_emulator: type[Emulator]) -
 
 def test_cli_rejects_bad_arguments() -> None:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    result = subprocess.run([sys.executable, "-m", "alpaca_zwo.emulator", "--home-flag", "sometimes"],
-                            capture_output=True, text=True, env=env, cwd=ROOT, timeout=30)
+    result = subprocess.run(
+        [sys.executable, "-m", "alpaca_zwo.emulator", "--home-flag", "sometimes"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+        timeout=30,
+    )
     assert result.returncode == 2
     assert "--home-flag" in result.stderr

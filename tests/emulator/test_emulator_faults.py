@@ -91,9 +91,7 @@ def test_stall_delays_replies_then_delivery_resumes(emu: EmulatorServer, mount: 
     assert time.monotonic() - started < 0.2
 
 
-def test_close_connections_drops_every_client(
-    emu: EmulatorServer, connect: Callable[[], MountClient]
-) -> None:
+def test_close_connections_drops_every_client(emu: EmulatorServer, connect: Callable[[], MountClient]) -> None:
     first, second = connect(), connect()
     assert first.ask(":GVP#") == second.ask(":GVP#") == "AM5#"
     emu.faults.close_connections()
@@ -114,7 +112,10 @@ def test_outage_refuses_new_connections_for_its_duration(
 
 
 def test_reboot_returns_the_power_up_state_and_keeps_flash(
-    emu: EmulatorServer, mount: MountClient, model: MountModel, clock: ManualClock,
+    emu: EmulatorServer,
+    mount: MountClient,
+    model: MountModel,
+    clock: ManualClock,
     connect: Callable[[], MountClient],
 ) -> None:
     initialize(mount, clock)

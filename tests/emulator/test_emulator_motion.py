@@ -507,8 +507,17 @@ def test_persistent_settings_survive_a_reboot_and_volatile_ones_do_not(
     assert ready.exact(":SBlNEW001#") == "1"
     emu.faults.reboot(0.0)
     client = connect()  # type: ignore[operator]
-    kept = {":GLL#": "5#", ":GLH#": "80#", ":GLC#": "1#", ":GRl#": "720#", ":GTa#": "01+05#",
-            ":Ggr#": "0.30#", ":GBu#": "2#", ":GU#": "nNZ000000000#", ":GBl#": "AM5_NEW001#"}
+    kept = {
+        ":GLL#": "5#",
+        ":GLH#": "80#",
+        ":GLC#": "1#",
+        ":GRl#": "720#",
+        ":GTa#": "01+05#",
+        ":Ggr#": "0.30#",
+        ":GBu#": "2#",
+        ":GU#": "nNZ000000000#",
+        ":GBl#": "AM5_NEW001#",
+    }
     for request, reply in kept.items():
         assert client.ask(request) == reply, request
     lost = {":GC#": "01/01/00#", ":GG#": "+00:00#", ":Gt#": "+31*15:41#", ":GT#": "0#", ":Gm#": "N#"}

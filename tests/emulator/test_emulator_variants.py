@@ -146,8 +146,14 @@ def test_a_switch_flipped_on_a_running_mount_applies_at_once(mount: MountClient,
 
 @pytest.mark.parametrize(
     "kwargs",
-    [{"home_flag": "sometimes"}, {"gt_mapping": "french"}, {"gps_reply": "x"}, {"hp_reply": "1"},
-     {"gh_reply": "2#"}, {"model": "AM9"}],
+    [
+        {"home_flag": "sometimes"},
+        {"gt_mapping": "french"},
+        {"gps_reply": "x"},
+        {"hp_reply": "1"},
+        {"gh_reply": "2#"},
+        {"model": "AM9"},
+    ],
 )
 def test_invalid_variant_values_are_rejected(kwargs: dict[str, str]) -> None:
     with pytest.raises(ValueError):

@@ -50,13 +50,18 @@ class Indi:
         env = dict(os.environ, HOME=str(home))  # the driver's config files go to a temp dir
         self.proc = subprocess.Popen(
             ["indiserver", "-p", str(self.port), "indi_lx200am5"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, start_new_session=True,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env=env,
+            start_new_session=True,
         )
 
     def get(self, *specs: str) -> dict[str, str]:
         result = subprocess.run(
             ["indi_getprop", "-p", str(self.port), "-t", "2", *[f"{DEVICE}.{spec}" for spec in specs]],
-            capture_output=True, text=True, timeout=15,
+            capture_output=True,
+            text=True,
+            timeout=15,
         )
         values = {}
         for line in result.stdout.splitlines():
@@ -65,8 +70,9 @@ class Indi:
         return values
 
     def set(self, spec: str) -> None:
-        subprocess.run(["indi_setprop", "-p", str(self.port), f"{DEVICE}.{spec}"],
-                       check=True, capture_output=True, timeout=15)
+        subprocess.run(
+            ["indi_setprop", "-p", str(self.port), f"{DEVICE}.{spec}"], check=True, capture_output=True, timeout=15
+        )
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -117,8 +123,11 @@ def indi(tmp_path: Path, emulator: EmulatorServer) -> Iterator[Indi]:
 
 def _coords(indi: Indi) -> tuple[float, float, str]:
     values = indi.get("EQUATORIAL_EOD_COORD.*", "EQUATORIAL_EOD_COORD._STATE")
-    return (float(values["EQUATORIAL_EOD_COORD.RA"]), float(values["EQUATORIAL_EOD_COORD.DEC"]),
-            values["EQUATORIAL_EOD_COORD._STATE"])
+    return (
+        float(values["EQUATORIAL_EOD_COORD.RA"]),
+        float(values["EQUATORIAL_EOD_COORD.DEC"]),
+        values["EQUATORIAL_EOD_COORD._STATE"],
+    )
 
 
 def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer, mount_model: MountModel) -> None:
@@ -138,8 +147,11 @@ def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer,
     now = datetime.now(timezone.utc)
     indi.set(f"TIME_UTC.UTC;OFFSET={now:%Y-%m-%dT%H:%M:%S};3")
     indi.set("GEOGRAPHIC_COORD.LAT;LONG;ELEV=48.1;11.5;500")
-    _until(lambda: model.snapshot()["initialized"] and model.latitude() == pytest.approx(48.1, abs=1e-3),
-           20, "time and site to reach the mount")
+    _until(
+        lambda: model.snapshot()["initialized"] and model.latitude() == pytest.approx(48.1, abs=1e-3),
+        20,
+        "time and site to reach the mount",
+    )
     assert model.utc_offset() == 3.0
     assert model.longitude() == pytest.approx(11.5, abs=1e-3)
     assert abs((datetime.fromisoformat(model.snapshot()["mount_utc"]) - now).total_seconds()) < 600
