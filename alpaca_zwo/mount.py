@@ -204,14 +204,18 @@ class Mount:
         poll_fast_s: float = 0.25,
         poll_slow_s: float = 0.75,
         utc_offset: Callable[[], timedelta] | None = None,
+        monotonic: Callable[[], float] = time.monotonic,
     ) -> None:
         self.link = link
+        #: Mount time in seconds: pulse windows, motion and reading ages are measured on it. It is
+        #: the host's monotonic clock for a real mount and the emulator's clock for a fast emulator.
+        self.monotonic = monotonic
         self._site = site
         self.clock = clock
         self._utc_offset = utc_offset or _host_utc_offset
         self.poll_fast_s = poll_fast_s
         self.poll_slow_s = poll_slow_s
-        self._state = MountState(time=time.monotonic(), link=link.status)
+        self._state = MountState(time=monotonic(), link=link.status)
         self._state_cond = threading.Condition()
         self._estimator = PositionEstimator()
         self._estimator_lock = threading.Lock()
@@ -234,7 +238,7 @@ class Mount:
 
     def _publish(self, **changes: object) -> MountState:
         with self._state_cond:
-            self._state = replace(self._state, time=time.monotonic(), link=self.link.status, **changes)
+            self._state = replace(self._state, time=self.monotonic(), link=self.link.status, **changes)
             self._state_cond.notify_all()
             return self._state
 
@@ -306,7 +310,7 @@ class Mount:
             self.push_site(latitude, longitude)
             guide_rate = self._exec(protocol.query("Ggr"))
             self._init_generation = generation
-            self._publish(info=info, status=status, status_time=time.monotonic(), guide_rate=guide_rate,
+            self._publish(info=info, status=status, status_time=self.monotonic(), guide_rate=guide_rate,
                           initialised=True)
             log.info("mount %s firmware %s initialised (link generation %d)", info.model, info.firmware, generation)
 
@@ -361,7 +365,7 @@ class Mount:
         self._exec(protocol.set_target_ra(ra))
         self._exec(protocol.set_target_dec(dec))
         self._exec(protocol.query("CM"))
-        now = time.monotonic()
+        now = self.monotonic()
         with self._estimator_lock:
             self._estimator.set_exact(ra, dec, now)
             self._estimator.set_ra_rate(self._ra_drift(), now)
@@ -370,7 +374,7 @@ class Mount:
 
     def sync_estimate(self, ra: float, dec: float) -> None:
         """Adopt exact coordinates the mount already agrees with, without a sync command."""
-        now = time.monotonic()
+        now = self.monotonic()
         with self._estimator_lock:
             self._estimator.set_exact(ra, dec, now)
             self._estimator.set_ra_rate(self._ra_drift(), now)
@@ -421,7 +425,7 @@ class Mount:
         if not 0 <= milliseconds <= PULSE_CHUNK_MS:
             raise ValueError(f"pulse of {milliseconds} ms is outside 0..{PULSE_CHUNK_MS}")
         state = self._state
-        start = time.monotonic()
+        start = self.monotonic()
         self._exec(protocol.pulse_guide(direction, milliseconds))
         end = start + milliseconds / 1000.0
         speed_deg = state.guide_rate * SIDEREAL_DEG_S
@@ -523,7 +527,7 @@ class Mount:
     def poll_once(self) -> MountState:
         """Read position, status, tracking and pier side with four short queries (≈55 bytes)."""
         ra, dec = self._exec(protocol.query("GMEQ"), Priority.POLL)
-        now = time.monotonic()
+        now = self.monotonic()
         status = self._exec(protocol.query("GU"), Priority.POLL)
         tracking = self._exec(protocol.query("GAT"), Priority.POLL)
         pier = self._exec(protocol.query("Gm"), Priority.POLL)
@@ -548,7 +552,7 @@ class Mount:
     def _poll_loop(self) -> None:
         while not self._stop.is_set():
             state = self._state
-            busy = bool(state.moving_axes) or state.goto_running or state.is_guiding()
+            busy = bool(state.moving_axes) or state.goto_running or state.is_guiding(self.monotonic())
             self._poll_wake.wait(self.poll_fast_s if busy else self.poll_slow_s)
             self._poll_wake.clear()
             if self._stop.is_set():
@@ -586,7 +590,7 @@ class Mount:
         return SIDEREAL_HOURS_PER_S * (1.0 - factor)
 
     def _rate_changed(self) -> None:
-        now = time.monotonic()
+        now = self.monotonic()
         with self._estimator_lock:
             self._estimator.set_ra_rate(self._ra_drift(), now)
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
@@ -96,15 +97,16 @@ class AlpacaZwoServer:
         for index, device in enumerate(settings.devices):
             url = self._device_url(index, device)
             clock: Callable[[], datetime] = utc_now
+            monotonic: Callable[[], float] = time.monotonic
             emulator = None
             if not url:
                 speed = self.overrides.emulator_speed or settings.emulator.speed
                 baud = settings.emulator.baud if self.overrides.emulator_baud is None else self.overrides.emulator_baud
                 emulator = EmbeddedEmulator(settings, speed, baud)
-                url, clock = emulator.url, emulator.now
+                url, clock, monotonic = emulator.url, emulator.now, emulator.clock.seconds
             self.emulators.append(emulator)
             link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)
-            mount = Mount(link, self._site, clock=clock)
+            mount = Mount(link, self._site, clock=clock, monotonic=monotonic)
             self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry, clock=clock))
 
         server = settings.server
@@ -121,7 +123,9 @@ class AlpacaZwoServer:
         logging.getLogger("waitress.queue").setLevel(logging.ERROR)  # "task queue depth" under load is expected
         self.http.start()
 
-        discovery_port = server.discovery_port if self.overrides.discovery_port is None else self.overrides.discovery_port
+        discovery_port = self.overrides.discovery_port
+        if discovery_port is None:
+            discovery_port = server.discovery_port
         if discovery_port:
             from .alpaca.discovery import DiscoveryResponder
 

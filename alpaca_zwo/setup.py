@@ -420,9 +420,8 @@ class Api:
                         "az": _finite(az), "floor": _finite(floor, 3), "below_limit": alt < floor,
                         "age_s": _finite(state.age(), 3)}
 
-        pier = None
-        slewing = at_park = at_home = guiding = tracking = False
-        tracking_rate = guide_rate = target = None
+        pier = tracking_rate = target = None
+        slewing = at_park = at_home = guiding = False
         if running:
             slewing = _quiet(telescope.slewing, False)
             at_park = _quiet(telescope.at_park, False)
@@ -546,7 +545,11 @@ class Api:
     # -- settings --------------------------------------------------------------------------------
 
     def read_mount_settings(self, index: int, telescope: Telescope) -> MountSettings | None:
-        """The settings stored in the mount, read now (a few short queries); None when not connected."""
+        """The settings stored in the mount, read now (a few short queries).
+
+        Without a link the last ones read are returned (None if never read), so the page can still
+        show them; the status poll never calls this, only the settings view does.
+        """
         if not telescope.mount.running or not telescope.mount.link.status.connected:
             return self._mount_settings.get(index)
         current = telescope.mount.read_settings()

@@ -472,7 +472,7 @@ class Telescope:
         altitude, azimuth = self._altaz(state)
         stamp = self.utc_now()
         if state.position_time is not None:
-            stamp -= timedelta(seconds=max(0.0, time.monotonic() - state.position_time))
+            stamp -= timedelta(seconds=max(0.0, self.mount.monotonic() - state.position_time))
         return [
             ("Altitude", altitude),
             ("AtHome", self.at_home()),
@@ -738,7 +738,7 @@ class Telescope:
             self._stop_for_new_motion()
             was_tracking = bool(self.mount.state.tracking and self.mount.state.tracking.on)
             self._restore_tracking = was_tracking if kind is MotionKind.ALTAZ else None
-            self._motion = _Motion(kind, time.monotonic())
+            self._motion = _Motion(kind, self.mount.monotonic())
         try:
             with self._mount_errors(kind.value):
                 self.mount.goto(ra, dec)
@@ -760,7 +760,7 @@ class Telescope:
         self._move_owner.clear()
         self.mount.refresh()
         idle = self.mount.wait_for(
-            lambda s: s.status_time is not None and s.status_time > time.monotonic() - 0.5 and not s.goto_running,
+            lambda s: s.status_time is not None and s.status_time > self.mount.monotonic() - 0.5 and not s.goto_running,
             timeout=10.0,
         )
         if idle is None:
@@ -825,7 +825,7 @@ class Telescope:
         self._require_unparked("FindHome")
         with self._lock:
             self._stop_for_new_motion()
-            self._motion = _Motion(MotionKind.HOME, time.monotonic())
+            self._motion = _Motion(MotionKind.HOME, self.mount.monotonic())
         try:
             with self._mount_errors("FindHome"):
                 self.mount.home()
@@ -840,7 +840,7 @@ class Telescope:
         park = self.settings.park
         with self._lock:
             self._stop_for_new_motion()
-            self._motion = _Motion(MotionKind.PARK, time.monotonic())
+            self._motion = _Motion(MotionKind.PARK, self.mount.monotonic())
         try:
             with self._mount_errors("Park"):
                 if park.mode == "home":
@@ -937,14 +937,14 @@ class Telescope:
                 log.exception("telescope supervisor error")
 
     def _next_wake(self) -> float:
-        now = time.monotonic()
+        """Real seconds to wait: 0.1 s at most, sooner when a pulse chunk ends (in mount time)."""
+        now = self.mount.monotonic()
         delays = [0.1]
-        for pulse in self._pulses.values():
-            delays.append(max(0.0, pulse.chunk_end - now))
+        delays.extend(max(0.0, pulse.chunk_end - now) for pulse in self._pulses.values())
         return min(delays)
 
     def _tick(self) -> None:
-        now = time.monotonic()
+        now = self.mount.monotonic()
         self._tick_pulses(now)
         self._tick_motion(now)
         self._tick_watchdog()

@@ -396,7 +396,12 @@
       form.classList.toggle("disabled", !on);
       for (const input of form.querySelectorAll("input, select, button")) input.disabled = !on;
     }
-    if (on && !state.mountSettingsLoaded) loadSettings();
+    // Read the mount's own settings once each time the mount comes up (not on every poll).
+    if (on && !state.mountSettingsLoaded && !state.mountSettingsAsked) {
+      state.mountSettingsAsked = true;
+      loadSettings();
+    }
+    if (!on) state.mountSettingsAsked = state.mountSettingsLoaded = false;
   }
 
   function renderClients(rows) {

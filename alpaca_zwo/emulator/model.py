@@ -309,8 +309,10 @@ class MountModel:
     def _advance(self) -> None:
         """Integrate the physics up to the clock's present (callers hold the lock)."""
         now = self._clock.seconds()
-        guard = 0
         while now - self._t > 1e-12:
+            if self._at_rest():
+                self._t = now  # nothing moves and nothing can start by itself: one jump
+                break
             dt = min(now - self._t, SLEW_STEP_S if self._slew is not None else STEADY_STEP_S)
             for pulse in self._pulses:
                 if pulse is not None and pulse.end - self._t > 1e-12:
@@ -322,9 +324,16 @@ class MountModel:
             for axis, pulse in enumerate(self._pulses):
                 if pulse is not None and pulse.end - self._t <= 1e-9:
                     self._pulses[axis] = None
-            guard += 1
-            if guard > 10_000_000:  # pragma: no cover - a bug, not a state
-                raise RuntimeError("emulator physics failed to advance")
+
+    def _at_rest(self) -> bool:
+        return (
+            self._slew is None
+            and not self._tracking
+            and self._vel[RA] == 0.0
+            and self._vel[DEC] == 0.0
+            and self._moves == [None, None]
+            and self._pulses == [None, None]
+        )
 
     def _until_meridian(self, dt: float) -> float:
         """Shorten a steady tracking step so the meridian stop happens where it should."""
