@@ -229,6 +229,7 @@ class Mount:
         self.clock_offset = timedelta(0)
         self._goto_target: tuple[float, float] | None = None
         self._poll_cycles = 0
+        self._commands = 0  # client commands sent so far; lets a poll notice it overlapped one
 
     # -- state -------------------------------------------------------------------------------
 
@@ -525,12 +526,19 @@ class Mount:
     # -- polling -----------------------------------------------------------------------------
 
     def poll_once(self) -> MountState:
-        """Read position, status, tracking and pier side with four short queries (≈55 bytes)."""
+        """Read position, status, tracking and pier side with four short queries (≈55 bytes).
+
+        A client command that ran while this poll was under way may have changed what the poll
+        read before it (tracking, status): such a poll publishes only its position and asks for a
+        new poll, so a stale reading never overwrites a fresh command's effect.
+        """
+        commands_before = self._commands
         ra, dec = self._exec(protocol.query("GMEQ"), Priority.POLL)
         now = self.monotonic()
         status = self._exec(protocol.query("GU"), Priority.POLL)
         tracking = self._exec(protocol.query("GAT"), Priority.POLL)
         pier = self._exec(protocol.query("Gm"), Priority.POLL)
+        overlapped = self._commands != commands_before
         state = self._state
         moving = bool(state.moving_axes) or status.slewing
         with self._estimator_lock:
@@ -543,9 +551,14 @@ class Mount:
                     if target is not None and _close(target, (ra, dec)):
                         self._estimator.set_exact(target[0], target[1], now)
                     self._goto_target = None
-                self._estimator.ra_rate = self._ra_drift(tracking)
+                drift = self._ra_drift(state.tracking if overlapped else tracking)
+                if drift != self._estimator.ra_rate:
+                    self._estimator.set_ra_rate(drift, now)
                 best = self._estimator.observe(ra, dec, now)
         self._poll_cycles += 1
+        if overlapped:
+            self.refresh()
+            return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now)
         return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now, status=status,
                              status_time=now, tracking=tracking, pier=pier, poll_error="")
 
@@ -593,6 +606,12 @@ class Mount:
         now = self.monotonic()
         with self._estimator_lock:
             self._estimator.set_ra_rate(self._ra_drift(), now)
+
+
+#: Commands that change what a poll reads (:GU#, :GAT#, :Gm#); pulses and queries do not.
+_STATUS_CHANGING = frozenset(
+    {"Te", "Td", "MS", "SMeq", "hC", "hP", "Q", "CM", "SMMC", "TQ", "TS", "TL", "Spu", "AP", "AA"}
+)
 
 
 def _close(a: tuple[float, float], b: tuple[float, float]) -> bool:
