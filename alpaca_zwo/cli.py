@@ -34,8 +34,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"TOML configuration file (default {default_config_path()})")
     parser.add_argument("--mdns", action="store_true", default=None,
                         help="advertise the setup page with mDNS/zeroconf (multicasts on your network; off by default)")
-    parser.add_argument("--emulator-speed", type=float, metavar="F", help="run the built-in emulator's clock F times faster")
-    parser.add_argument("--emulator-baud", type=int, metavar="N", help="pace the built-in emulator like an N-baud line (0 = unpaced)")
+    parser.add_argument("--emulator-speed", type=float, metavar="F",
+                        help="run the built-in emulator's clock F times faster")
+    parser.add_argument("--emulator-baud", type=int, metavar="N",
+                        help="pace the built-in emulator like an N-baud line (0 = unpaced)")
     parser.add_argument("--log-level", default=None, choices=["DEBUG", "INFO", "WARNING", "ERROR"],
                         help="logging level (default from the config file: INFO)")
     parser.add_argument("--version", action="version", version=f"alpaca-zwo {__version__}")
