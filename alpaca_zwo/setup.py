@@ -409,6 +409,8 @@ class Api:
         now = telescope.utc_now()
         lst = sky.local_sidereal_time(now, site.longitude)
         connected_keys = _connected_clients(telescope)
+        # Snapshot times are on the mount's own clock (the emulator's, when it runs fast).
+        mount_now = mount.monotonic()
 
         position: dict[str, Any] | None = None
         ha: float | None = None
@@ -418,7 +420,7 @@ class Api:
             floor = horizon_altitude_at(settings.limits, az)
             position = {"ra": _finite(state.ra, 7), "dec": _finite(state.dec), "ha": _finite(ha), "alt": _finite(alt),
                         "az": _finite(az), "floor": _finite(floor, 3), "below_limit": alt < floor,
-                        "age_s": _finite(state.age(), 3)}
+                        "age_s": _finite(state.age(mount_now), 3)}
 
         pier = tracking_rate = target = None
         slewing = at_park = at_home = guiding = False
@@ -426,7 +428,7 @@ class Api:
             slewing = _quiet(telescope.slewing, False)
             at_park = _quiet(telescope.at_park, False)
             at_home = _quiet(telescope.at_home, False)
-            guiding = _quiet(telescope.is_pulse_guiding, False) or state.is_guiding()
+            guiding = _quiet(telescope.is_pulse_guiding, False) or state.is_guiding(mount_now)
             tracking_rate = _quiet(telescope.tracking_rate, None)
             pier_code = _quiet(telescope.side_of_pier, None)
             pier = {0: "east", 1: "west"}.get(pier_code, "unknown") if pier_code is not None else None

@@ -202,7 +202,7 @@
     el("path", { d: "M -3 0 H 3 M 0 -3 V 3", class: "sky-pole" }, svg); // zenith
     sky.pole = el("g", { id: "sky-pole" }, svg);
     el("circle", { cx: 0, cy: 0, r: 2.5, class: "sky-pole" }, sky.pole);
-    const poleLabel = el("text", { x: 0, y: -5, class: "sky-small" }, sky.pole);
+    const poleLabel = el("text", { x: 9, y: -5, class: "sky-small" }, sky.pole);
     poleLabel.textContent = "pole";
     const labels = [["N", 0], ["E", 90], ["S", 180], ["W", 270]];
     for (const [name, az] of labels) {

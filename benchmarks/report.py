@@ -1,0 +1,174 @@
+"""Render a results JSON as the Markdown tables of BENCHMARKS.md, with each goal judged.
+
+``python -m benchmarks.report benchmarks/results/<stamp>.json`` re-renders a stored run.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["goals", "render"]
+
+OURS = "alpaca-zwo"
+PEER = "alpaca-simulators"
+
+
+def _f(value: Any, digits: int = 1) -> str:
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.{digits}f}"
+    return str(value)
+
+
+def _http(results: dict[str, Any], test: str, target: str) -> dict[str, Any] | None:
+    return next((r for r in results.get("http", []) if r["test"] == test and r["target"] == target), None)
+
+
+def goals(results: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """(goal, measured, verdict) for every goal the run has data for."""
+    out: list[tuple[str, str, str]] = []
+    for test in ("sat-tracking", "sat-rightascension"):
+        ours = _http(results, test, OURS)
+        peers = [r for r in results.get("http", []) if r["test"] == test and r["target"].startswith(PEER)]
+        if ours and peers:
+            best = max(peers, key=lambda r: r["rate_per_s"])
+            ratio = ours["rate_per_s"] / best["rate_per_s"] if best["rate_per_s"] else float("inf")
+            out.append((f"Saturated GET {test.removeprefix('sat-')} >= 3x the peer",
+                        f"{ours['rate_per_s']:.0f} vs {best['rate_per_s']:.0f} req/s ({best['target']}): "
+                        f"{ratio:.2f}x", "met" if ratio >= 3.0 else f"MISSED ({ratio / 3.0:.0%} of goal)"))
+    for test in ("nina-50", "nina-ds-50"):
+        ours = _http(results, test, OURS)
+        if ours:
+            good = ours["p99_ms"] is not None and ours["p99_ms"] < 10.0 and ours["errors"] == 0
+            out.append((f"50 N.I.N.A.-like pollers ({test}): p99 < 10 ms, zero errors",
+                        f"p99 {_f(ours['p99_ms'], 2)} ms, {ours['errors']} errors, {ours['requests']} requests",
+                        "met" if good else "MISSED"))
+    rest = [r for r in results.get("serial", []) if r["state"] == "rest"]
+    if rest:
+        worst = max(r["line_pct"] for r in rest)
+        oldest = max((r["age_max_s"] or 0.0) for r in rest)
+        rates = [r["bytes_per_s"] for r in rest]
+        spread = (max(rates) - min(rates)) / min(rates) if min(rates) else float("inf")
+        out.append(("Serial load at rest <= 25% of a 9600-baud line", f"{worst:.1f}% worst case",
+                    "met" if worst <= 25.0 else "MISSED"))
+        out.append(("State no older than 1 s (at rest)", f"max age {oldest:.3f} s",
+                    "met" if oldest <= 1.0 else "MISSED"))
+        counts = sorted(r["clients"] for r in rest)
+        out.append((f"Serial load flat from {counts[0]} to {counts[-1]} HTTP clients (within 5%)",
+                    f"{min(rates):.1f}..{max(rates):.1f} B/s, spread {spread:.1%}",
+                    "met" if spread <= 0.05 else "MISSED"))
+    for row in results.get("abort", []):
+        if row["target"] == OURS and row.get("wire_p99_ms") is not None:
+            name = "AbortSlew" if row["kind"] == "abortslew" else "MoveAxis(0)"
+            good = row["wire_p99_ms"] < 30.0 and not row["wire_unmatched"]
+            out.append((f"{name} on the wire, p99 < 30 ms at 9600 baud, 50 pollers",
+                        f"p99 {row['wire_p99_ms']:.1f} ms (max {row['wire_max_ms']:.1f}, n={row['n']}, "
+                        f"last byte at the emulator)", "met" if good else "MISSED"))
+    rss = {entry["where"]: entry for entry in results.get("rss", [])}
+    one, hundred = rss.get("rest, 1 NINA clients"), rss.get("rest, 100 NINA clients")
+    if one and hundred:
+        out.append(("Resident size at 1 and 100 clients (reported)",
+                    f"{one.get(OURS)} MB / {hundred.get(OURS)} MB", "reported"))
+    soak = results.get("soak")
+    if soak:
+        growth = (soak["rss_last_min_mb"] or 0.0) - (soak["rss_after_2min_mb"] or 0.0)
+        out.append((f"No memory growth over {soak['duration_s'] / 60:.0f} min",
+                    f"{soak['rss_after_2min_mb']} -> {soak['rss_last_min_mb']} MB ({growth:+.2f} MB), slope "
+                    f"{soak['slope_mb_per_min_after_2min']} MB/min, {soak['errors']} errors",
+                    "met" if growth <= 1.0 and soak["errors"] == 0 else "MISSED"))
+    return out
+
+
+def render(results: dict[str, Any]) -> str:
+    meta = results.get("meta", {})
+    machine = meta.get("machine", {})
+    lines = [f"## Run {meta.get('started', '')}", ""]
+    lines.append(f"- command: `{meta.get('command', '')}` ({meta.get('duration_s', '?')} s)")
+    lines.append(f"- machine: {machine.get('cpu', '?')}, {machine.get('cores', '?')} cores, "
+                 f"{machine.get('memory_gb', '?')} GB, {machine.get('os', '?')}, Python {machine.get('python', '?')}")
+    lines.append(f"- packages: {', '.join(f'{k} {v}' for k, v in machine.get('packages', {}).items())}")
+    lines.append(f"- commit {machine.get('commit', '?')}; load average at start {machine.get('loadavg_start')}, "
+                 f"at end {meta.get('loadavg_end')}; pinning: {meta.get('plan', {}).get('pin')}")
+    if meta.get("note"):
+        lines.append(f"- conditions: {meta['note']}")
+    lines += ["", "### Goals", "", "| Goal | Measured | Verdict |", "|---|---|---|"]
+    lines += [f"| {g} | {m} | {v} |" for g, m, v in goals(results)]
+
+    http = results.get("http", [])
+    if http:
+        lines += ["", "### HTTP: the same loads against both servers in this run", "",
+                  "| Test | Clients | Server | req/s | p50 ms | p99 ms | max ms | errors | server CPU % | "
+                  "generator CPU % | RSS MB |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for row in http:
+            lines.append(f"| {row['test']} | {row['clients']} | {row['target']} | {_f(row['rate_per_s'])} | "
+                         f"{_f(row['p50_ms'], 2)} | {_f(row['p99_ms'], 2)} | {_f(row['max_ms'], 1)} | "
+                         f"{row['errors']} | {_f(row['server_cpu_pct'], 0)} | {_f(row['generator_cpu_pct'], 0)} | "
+                         f"{_f(row['rss_mb'])} |")
+        put_rows = [(row, label, s) for row in http for label, s in row["labels"].items()
+                    if label.startswith("put:") or label in ("phd2", "tppa", "planetarium", "nina-ds")]
+        if put_rows:
+            lines += ["", "Per client kind inside the mixed tests:", "",
+                      "| Test | Server | Client | calls | p50 ms | p99 ms | max ms | errors |",
+                      "|---|---|---|---|---|---|---|---|"]
+            for row, label, s in put_rows:
+                lines.append(f"| {row['test']} | {row['target']} | {label} | {s['ok']} | {_f(s.get('p50_ms'), 2)} | "
+                             f"{_f(s.get('p99_ms'), 2)} | {_f(s.get('max_ms'), 1)} | {s['errors']} |")
+
+    serial = results.get("serial", [])
+    if serial:
+        lines += ["", "### Mount line (counted by the emulator, 9600 baud = 960 B/s)", "",
+                  "| Mount | HTTP clients | HTTP req/s | B/s to mount | B/s from mount | total B/s | % of line | "
+                  "exchanges/s | state age p50 / max s | NINA p99 ms | errors | server RSS MB | server CPU % |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        for row in serial:
+            nina = row.get("nina") or {}
+            lines.append(f"| {row['state']} | {row['clients']} | {_f(row['http_get_per_s'])} | "
+                         f"{_f(row['bytes_to_mount_per_s'])} | {_f(row['bytes_from_mount_per_s'])} | "
+                         f"{_f(row['bytes_per_s'])} | {_f(row['line_pct'])} | {_f(row['exchanges_per_s'], 2)} | "
+                         f"{_f(row['age_p50_s'], 2)} / {_f(row['age_max_s'], 2)} | {_f(nina.get('p99_ms'), 2)} | "
+                         f"{row['errors']} | {_f(row['rss_mb'])} | {_f(row['server_cpu_pct'], 0)} |")
+
+    aborts = results.get("abort", [])
+    if aborts:
+        lines += ["", "### Stop commands while 50 N.I.N.A.-like pollers run", "",
+                  "| Server | Stop | n | HTTP p50 / p99 / max ms | link starts writing p50 / p99 / max ms | "
+                  "last byte at emulator p50 / p99 / max ms | pollers p99 ms | errors |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for row in aborts:
+            name = "AbortSlew" if row["kind"] == "abortslew" else "MoveAxis(0)"
+            pollers = row.get("pollers") or {}
+            lines.append(
+                f"| {row['target']} | {name} | {row['n']} | {_f(row['http_p50_ms'])} / {_f(row['http_p99_ms'])} / "
+                f"{_f(row['http_max_ms'])} | {_f(row.get('trace_p50_ms'))} / {_f(row.get('trace_p99_ms'))} / "
+                f"{_f(row.get('trace_max_ms'))} | {_f(row.get('wire_p50_ms'))} / {_f(row.get('wire_p99_ms'))} / "
+                f"{_f(row.get('wire_max_ms'))} | {_f(pollers.get('p99_ms'), 2)} | {row['errors']} |")
+
+    rss = results.get("rss", [])
+    if rss:
+        lines += ["", "### Resident memory", "", "| When | alpaca-zwo MB | alpaca-simulators MB |", "|---|---|---|"]
+        lines += [f"| {e['where']} | {_f(e.get(OURS))} | {_f(e.get(PEER))} |" for e in rss]
+    soak = results.get("soak")
+    if soak:
+        lines += ["", f"Soak ({soak['duration_s'] / 60:.0f} min, mixed night load, {soak['gotos']} GOTOs): RSS "
+                  f"{soak['rss_first_mb']:.1f} MB at start, {soak['rss_after_2min_mb']} MB average in minute 3, "
+                  f"{soak['rss_last_min_mb']} MB average in the last minute, max {soak['rss_max_mb']} MB, "
+                  f"slope {soak['slope_mb_per_min_after_2min']} MB/min after minute 2; {soak['errors']} errors."]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    if not args:
+        print("usage: python -m benchmarks.report RESULTS.json", file=sys.stderr)
+        return 2
+    print(render(json.loads(Path(args[0]).read_text())))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
