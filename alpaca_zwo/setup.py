@@ -674,12 +674,10 @@ class Api:
     def _apply_mount(telescope: Telescope, name: str, value: Any) -> None:
         mount = telescope.mount
         setters: dict[str, Callable[[Any], None]] = {
-            "meridian": mount.set_meridian, "upper_limit": mount.set_upper_limit,
+            "meridian": telescope.set_meridian_settings, "upper_limit": mount.set_upper_limit,
             "lower_limit": mount.set_lower_limit, "limits_enabled": mount.set_limits_enabled,
             "heavy_duty": mount.set_heavy_duty, "buzzer": mount.set_buzzer}
         setters[name](value)
-        if name == "meridian":
-            _tell_telescope_meridian(telescope, value)
         log.info("setup page: mount %s set to %s", name.replace("_", " "), value)
 
     def server_view(self) -> dict[str, Any]:
@@ -736,22 +734,7 @@ def _quiet(getter: Callable[[], Any], default: Any) -> Any:
 
 def _connected_clients(telescope: Telescope) -> frozenset[ClientKey]:
     """Who holds the device connected. Read-only view of the Telescope's reference count."""
-    public = getattr(telescope, "connected_clients", None)
-    if callable(public):
-        return frozenset(public())
-    for _ in range(3):
-        with contextlib.suppress(RuntimeError):  # the set changed while being copied: try again
-            return frozenset(getattr(telescope, "_clients", ()))
-    return frozenset()
-
-
-def _tell_telescope_meridian(telescope: Telescope, meridian: MeridianSettings) -> None:
-    """DestinationSideOfPier must use the limit just written; the Telescope caches it at connect."""
-    public = getattr(telescope, "set_meridian_settings", None)
-    if callable(public):
-        public(meridian)
-    elif hasattr(telescope, "_meridian"):
-        telescope._meridian = meridian
+    return telescope.connected_clients()
 
 
 # --- the JSON API: routes -----------------------------------------------------------------------

@@ -291,10 +291,33 @@ class Telescope:
                 raise DriverError(f"cannot connect to the mount at {self.mount.link.url}: {exc}", ERR_LINK) from exc
             self._load_mount_settings()
 
+    def connected_clients(self) -> frozenset[ClientKey]:
+        """Who holds the device connected (the setup page lists them)."""
+        with self._lock:
+            return frozenset(self._clients)
+
+    def _configured_meridian(self) -> MeridianSettings:
+        limits = self.settings.limits
+        return MeridianSettings(False, limits.meridian_track_past, round(limits.meridian_limit_deg))
+
+    def set_meridian_settings(self, meridian: MeridianSettings) -> None:
+        """Write the mount's meridian behaviour and remember it: DestinationSideOfPier depends on it."""
+        with self._mount_errors("setting the meridian behaviour"):
+            self.mount.set_meridian(meridian)
+        self._meridian = meridian
+
     def _load_mount_settings(self) -> None:
+        """The configuration is the single source of truth: a replaced or reset mount gets it back."""
         settings = self.mount.read_settings()
+        wanted = self._configured_meridian()
         if settings.meridian is not None:
             self._meridian = settings.meridian
+            if settings.meridian != wanted:
+                try:
+                    self.set_meridian_settings(wanted)
+                    log.info("mount meridian setting %s replaced by the configured %s", settings.meridian, wanted)
+                except DriverError as exc:
+                    log.warning("could not apply the configured meridian setting: %s", exc.message)
         try:
             self.mount.set_tracking_rate(TrackRate.SIDEREAL)  # "start up with a known tracking rate"
         except (LinkError, ProtocolError) as exc:

@@ -71,7 +71,12 @@ class HttpServer:
         thread = self._thread
         if thread is not None and thread.is_alive():
             # Sockets belong to the loop thread: it closes them itself, and an empty map ends its loop.
-            self._triggers[0].pull_trigger(self._close_connections)
+            try:
+                self._triggers[0].pull_trigger(self._close_connections)
+            except OSError:
+                # A wake-up already in progress ran a close first and the trigger is gone: the loop is
+                # ending on its own, so there is nothing left to wake.
+                log.debug("HTTP loop trigger already closed")
             thread.join(timeout)
             if thread.is_alive():
                 log.warning("HTTP server loop did not stop within %.1f s", timeout)

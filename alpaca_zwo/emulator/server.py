@@ -318,6 +318,7 @@ class EmulatorServer:
         self._lines: dict[int, _Line] = {}
         self._closed_totals = {"bytes_in": 0, "bytes_out": 0, "exchanges": 0, "replies": 0, "connections": 0}
         self._lock = threading.Lock()
+        self._accept_lock = threading.Lock()
         self._ids = itertools.count(1)
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
@@ -357,7 +358,7 @@ class EmulatorServer:
             listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             listener.bind((self.host, self._want_port))
             listener.listen(16)
-            listener.settimeout(_POLL_S)
+            listener.setblocking(False)  # the accept loop waits in select()
             self._listener = listener
             self._spawn(self._accept_loop, "emulator-accept")
         if self._want_pty:
@@ -408,30 +409,61 @@ class EmulatorServer:
         assert listener is not None
         while not self._stop.is_set():
             try:
-                sock, address = listener.accept()
-            except TimeoutError:
+                ready, _, _ = select.select([listener], [], [], _POLL_S)
+            except (OSError, ValueError):
+                return  # the listener was closed under us: the server is stopping
+            if not ready:
                 continue
-            except OSError:
+            # Under the accept lock, so a close fault cannot slip between accept and registration.
+            with self._accept_lock:
                 if self._stop.is_set():
                     return
-                time.sleep(_POLL_S)
-                continue
-            try:
-                if self.faults.refusing():
-                    # Outage or reboot: reset the connection at once (RST, not a polite FIN).
-                    sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
-                    sock.close()
-                    self.refused += 1
+                try:
+                    sock, address = listener.accept()
+                except BlockingIOError:
+                    continue  # a close fault drained it first
+                except OSError:
+                    if self._stop.is_set():
+                        return
+                    time.sleep(_POLL_S)
                     continue
-                sock.settimeout(None)
-                line = _TcpLine(self, next(self._ids), sock, f"{address[0]}:{address[1]}")
-                with self._lock:
-                    self._lines[line.id] = line
-                line.start()
-            except Exception:
-                _log.exception("accepting a connection failed")
-                with contextlib.suppress(OSError):
-                    sock.close()
+                try:
+                    if self.faults.refusing():
+                        self._reset(sock)  # outage or reboot: nobody home
+                        self.refused += 1
+                        continue
+                    sock.setblocking(True)
+                    line = _TcpLine(self, next(self._ids), sock, f"{address[0]}:{address[1]}")
+                    with self._lock:
+                        self._lines[line.id] = line
+                    line.start()
+                except Exception:
+                    _log.exception("accepting a connection failed")
+                    with contextlib.suppress(OSError):
+                        sock.close()
+
+    @staticmethod
+    def _reset(sock: socket.socket) -> None:
+        """Close with RST rather than a polite FIN, as a vanished peer looks to the client."""
+        with contextlib.suppress(OSError):
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        sock.close()
+
+    def _drop_pending(self) -> None:
+        """Reset connections the kernel completed but the accept loop has not picked up yet.
+
+        Without this a client that connected a moment before a close fault would survive it
+        (its handshake finished in the backlog), which a real WiFi drop or reboot would not allow.
+        """
+        listener = self._listener
+        if listener is None:
+            return
+        while True:
+            try:
+                sock, _ = listener.accept()
+            except (BlockingIOError, OSError):
+                return
+            self._reset(sock)
 
     # ---------------------------------------------------------------- pty
 
@@ -475,11 +507,13 @@ class EmulatorServer:
 
     def _on_fault(self, event: FaultEvent) -> None:
         if event.kind in ("close", "outage", "reboot"):
-            self._close_lines(include_pty=True)
+            self.close_connections()
 
     def close_connections(self) -> None:
-        """Drop every line now (without arming the fault switches)."""
-        self._close_lines(include_pty=True)
+        """Drop every line now, including connections still in the listen backlog."""
+        with self._accept_lock:
+            self._drop_pending()
+            self._close_lines(include_pty=True)
 
     def _close_lines(self, include_pty: bool) -> None:
         with self._lock:

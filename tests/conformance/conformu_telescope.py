@@ -17,6 +17,7 @@ ConformU quirks that are reproduced on purpose (checklist §E) are marked ``QUIR
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -429,7 +430,7 @@ class TelescopeTester(DeviceTesterBase):
     # =================================================================================================
     # Properties (§6, TT L626-L2811)
     # =================================================================================================
-    def check_properties(self) -> None:  # noqa: C901 - one long sequence, as in ConformU
+    def check_properties(self) -> None:
         t, a = self.t, self.a
         # 6.0: first-use reads, graded later
         target_dec_exception: BaseException | None = None
@@ -601,8 +602,10 @@ class TelescopeTester(DeviceTesterBase):
             elif ra_rate == 0.0:
                 self.log_ok("RightAscensionRate Read", f"{ra_rate:.2f}")
             else:
+                # QUIRK (§E): the message prints the DeclinationRate value.
                 self.log_issue("RightAscensionRate Read", "RightAscensionRate is non zero when "
-                                                          f"CanSetRightAscensionRate is False {self.declination_rate:.2f}")
+                                                          "CanSetRightAscensionRate is False "
+                                                          f"{self.declination_rate:.2f}")
         except Exception as ex:
             if not self.can_set_right_ascension_rate:
                 self.log_info("RightAscensionRate Read", "RightAscensionRate must return 0 if "
@@ -756,11 +759,10 @@ class TelescopeTester(DeviceTesterBase):
             except Exception as ex:
                 self.handle_exception(test, PROPERTY, MUST_NOT_BE, ex, f"CanSet{member} is False")
             return
-        try:
+        with contextlib.suppress(Exception):  # best endeavours
             t.TrackingRate = SIDEREAL
-        except Exception:  # best endeavours
-            pass
-        low, high = self.settings.telescope_rate_offset_test_low_value, self.settings.telescope_rate_offset_test_high_value
+        low = self.settings.telescope_rate_offset_test_low_value
+        high = self.settings.telescope_rate_offset_test_high_value
         if axis == "RA":
             low, high = low * ARC_SECONDS_TO_RA_SECONDS, high * ARC_SECONDS_TO_RA_SECONDS
         if self.test_ra_dec_rate(test, "Set rate to   0.000", axis, 0.0, True):
@@ -853,7 +855,8 @@ class TelescopeTester(DeviceTesterBase):
         if good:
             self.log_ok(test, f"{name} is within expected tolerance. {message}")
         else:
-            self.log_issue(test, f"{name} is outside the expected tolerance. {message}, Tolerance:{tolerance * 100:.0f}%.")
+            self.log_issue(test, f"{name} is outside the expected tolerance. {message}, "
+                                 f"Tolerance:{tolerance * 100:.0f}%.")
 
     # -- site (§6.20-§6.22) - through alpyca -------------------------------------------------------------
     def site_elevation_tests(self) -> None:
@@ -1335,8 +1338,8 @@ class TelescopeTester(DeviceTesterBase):
                         self.log_issue("Park", f"Exception when calling Park two times in succession: {ex}")
                     self.parked_exception_tests()
                 else:
-                    self.log_issue("Park", f"Failed to park within {self.settings.telescope_maximum_slew_time} seconds, "
-                                           "skipping further Park tests.")
+                    self.log_issue("Park", f"Failed to park within {self.settings.telescope_maximum_slew_time} "
+                                           "seconds, skipping further Park tests.")
                 if self.can_unpark:
                     self.unpark_after_park()
                 else:
@@ -1360,10 +1363,8 @@ class TelescopeTester(DeviceTesterBase):
             self.wait_for_park_state("Waiting for scope to unpark when parked", False)
             if not t.AtPark:
                 self.log_ok("Unpark", "Unparked successfully.")
-                try:
+                with contextlib.suppress(Exception):  # ConformU ignores this
                     t.Tracking = True
-                except Exception:  # ConformU ignores this
-                    pass
                 try:
                     t.Unpark()
                     self.wait_for_park_state("Waiting for scope to unpark when parked", False)
@@ -1450,10 +1451,8 @@ class TelescopeTester(DeviceTesterBase):
                 original = t.Tracking
                 t.Tracking = True
                 if not original:
-                    try:
+                    with contextlib.suppress(Exception):
                         t.Tracking = False
-                    except Exception:
-                        pass
             self.parked_exception_test("Tracking = true", tracking_true)
             try:
                 t.Tracking = False
@@ -1651,7 +1650,10 @@ class TelescopeTester(DeviceTesterBase):
         if self.can_set_tracking:
             t.Tracking = False
         self.time_method(test_name, t.FindHome, STANDARD if self.is_platform7 else EXTENDED)
-        self.wait_for_park_state("Waiting for scope to home...", True) if self.is_platform7 else \
+        if self.is_platform7:
+            self.wait_while("Waiting for scope to home...", lambda: t.Slewing, SLEEP_TIME_MS,
+                            self.settings.telescope_maximum_slew_time)
+        else:
             self.wait_while("Waiting for scope to home...", lambda: not t.AtHome, SLEEP_TIME_MS,
                             self.settings.telescope_maximum_slew_time)
         if t.Tracking:
@@ -1696,7 +1698,7 @@ class TelescopeTester(DeviceTesterBase):
             self.log_issue(test, f"Unexpected exception from Slewing: {ex}")
         return False
 
-    def move_axis_test(self, test_name: str, axis: int, rates: list[tuple[float, float]]) -> None:  # noqa: C901
+    def move_axis_test(self, test_name: str, axis: int, rates: list[tuple[float, float]]) -> None:
         t = self.t
         if not rates:
             self.log_issue(test_name, "MoveAxis tests skipped because there are no AxisRate values")
@@ -1886,7 +1888,8 @@ class TelescopeTester(DeviceTesterBase):
                 self.log_ok(log, f"Moved {name.lower()} with no east-west movement  - {detail_dec}")
                 return
             if dec_change * sign < 0.0:
-                self.log_issue(log, f"Moved {'south' if sign > 0 else 'north'} instead of {name.lower()} - {detail_dec}")
+                wrong = "south" if sign > 0 else "north"
+                self.log_issue(log, f"Moved {wrong} instead of {name.lower()} - {detail_dec}")
             elif dec_change == 0.0:
                 self.log_issue(log, "The declination axis did not move.")
             elif dec_diff <= tol_dec:
@@ -1905,7 +1908,8 @@ class TelescopeTester(DeviceTesterBase):
                 self.log_ok(log, f"Moved {name.lower()} with no north-south movement - {detail_ra}")
                 return
             if ra_change * sign < 0.0:
-                self.log_issue(log, f"Moved {'west' if sign > 0 else 'east'} instead of {name.lower()} - {detail_ra}")
+                wrong = "west" if sign > 0 else "east"
+                self.log_issue(log, f"Moved {wrong} instead of {name.lower()} - {detail_ra}")
             elif ra_change == 0.0:
                 self.log_issue(log, "The RA axis did not move.")
             elif ra_diff <= tol_ra:
@@ -1960,7 +1964,7 @@ class TelescopeTester(DeviceTesterBase):
         t.Tracking = False
 
     # -- Slews (§7.8, §7.9, §7.12, §7.14; TelescopeSlewTest L4511-L4863) ----------------------------------------
-    def slew_test(self, test_type: str, test_name: str, can: bool, can_name: str) -> None:  # noqa: C901
+    def slew_test(self, test_type: str, test_name: str, can: bool, can_name: str) -> None:
         t = self.t
         if self.can_set_tracking:
             t.Tracking = True
@@ -2101,7 +2105,7 @@ class TelescopeTester(DeviceTesterBase):
                                       f"±{tolerance} degrees.")
 
     # -- bad coordinates (§8.6, TelescopeBadCoordinateTest L4873-L5302) -----------------------------------------
-    def bad_coordinate_test(self, name: str, test: str, bad1: float, bad2: float) -> None:  # noqa: C901
+    def bad_coordinate_test(self, name: str, test: str, bad1: float, bad2: float) -> None:
         t = self.t
         if test in ("SlewToCoordinates", "SlewToCoordinatesAsync", "SyncToCoordinates"):
             if self.can_set_tracking and not t.Tracking:
@@ -2115,10 +2119,8 @@ class TelescopeTester(DeviceTesterBase):
                 try:
                     call(ra, dec)
                     if verb == "slew":
-                        try:
+                        with contextlib.suppress(Exception):
                             t.AbortSlew()
-                        except Exception:
-                            pass
                     self.log_issue(name, f"Failed to reject bad {what} coordinate: {shown}")
                 except Exception as ex:
                     self.handle_invalid_value_exception_as_ok(name, METHOD, MANDATORY, ex,
@@ -2137,17 +2139,13 @@ class TelescopeTester(DeviceTesterBase):
             for bad_member, bad_value, good_member, good_value, what, shown, setter_name in cases:
                 try:
                     setattr(t, bad_member, bad_value)
-                    try:
+                    with contextlib.suppress(Exception):
                         setattr(t, good_member, good_value)
-                    except Exception:
-                        pass
                     try:
                         call()
                         if verb == "slew":
-                            try:
+                            with contextlib.suppress(Exception):
                                 t.AbortSlew()
-                            except Exception:
-                                pass
                         self.log_issue(name, f"Failed to reject bad {what} coordinate: {shown}")
                     except Exception as ex:
                         self.handle_invalid_value_exception_as_ok(name, METHOD, MANDATORY, ex,
@@ -2168,10 +2166,8 @@ class TelescopeTester(DeviceTesterBase):
                 try:
                     call(az, alt)
                     if verb == "slew":
-                        try:
+                        with contextlib.suppress(Exception):
                             t.AbortSlew()
-                        except Exception:
-                            pass
                     self.log_issue(name, f"Failed to reject bad {what} coordinate: {shown}")
                 except Exception as ex:
                     self.handle_invalid_value_exception_as_ok(name, METHOD, MANDATORY, ex,
@@ -2238,7 +2234,7 @@ class TelescopeTester(DeviceTesterBase):
             self.log_info(test, f"{what} differs from the value set by {fmt(difference)}")
 
     # -- Syncs (§7.10, §7.15, §7.16; TelescopeSyncTest L4151-L4509) ---------------------------------------------
-    def sync_test(self, test_type: str, test_name: str, can: bool, can_name: str) -> None:  # noqa: C901
+    def sync_test(self, test_type: str, test_name: str, can: bool, can_name: str) -> None:
         t = self.t
         sync_ra, sync_dec = t.RightAscension, t.Declination
         if not can:
@@ -2253,10 +2249,8 @@ class TelescopeTester(DeviceTesterBase):
                     if self.can_set_tracking and not t.Tracking:
                         t.Tracking = True
                     for member, value in (("TargetRightAscension", sync_ra), ("TargetDeclination", sync_dec)):
-                        try:
+                        with contextlib.suppress(Exception):
                             setattr(t, member, value)
-                        except Exception:
-                            pass
                     t.SyncToTarget()
                     self.log_issue(test_name, "CanSyncToTarget is False but call to SyncToTarget did not throw an "
                                               "exception.")
@@ -2555,10 +2549,7 @@ class TelescopeTester(DeviceTesterBase):
         dec = -85.0
         while dec < 90.0:
             if self.elevation_topocentric(test_ra, dec, latitude, longitude) > 0.0:
-                if latitude >= 0.0:
-                    lowest = min(lowest, dec)
-                else:
-                    lowest = max(lowest, dec)
+                lowest = min(lowest, dec) if latitude >= 0.0 else max(lowest, dec)
             dec += 10.0
         if -90.0 < lowest < 90.0:
             return (lowest + 90.0) / 2.0 if latitude >= 0.0 else (lowest - 90.0) / 2.0
