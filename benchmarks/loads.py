@@ -32,6 +32,7 @@ from array import array
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from .client import AlpacaClient, ReplyError, parse_iso_utc
@@ -90,6 +91,7 @@ class WorkerTask:
     measure_from: float  # wall clock: calls started before this are not recorded
     stop_at: float  # wall clock: clients stop issuing calls
     seed: int = 0
+    stop_file: str = ""  # if this file appears, stop early
 
 
 class Recorder:
@@ -133,19 +135,34 @@ class Recorder:
             self.extra.setdefault(name, array("d")).append(value)
 
 
-def _sleep_until(deadline: float, stop_at: float) -> bool:
+class End:
+    """When the clients stop: the planned time, brought forward if the orchestrator asks (stop file)."""
+
+    def __init__(self, at: float) -> None:
+        self.at = at
+
+    def watch(self, stop_file: str) -> None:
+        while time.time() < self.at:
+            if os.path.exists(stop_file):
+                self.at = time.time()
+                return
+            time.sleep(0.2)
+
+
+def _sleep_until(deadline: float, end: End) -> bool:
     """Sleep to a wall-clock deadline; False if the run ends first."""
-    wake = min(deadline, stop_at)
-    delay = wake - time.time()
-    if delay > 0:
-        time.sleep(delay)
-    return deadline < stop_at
+    while True:
+        delay = min(deadline, end.at) - time.time()
+        if delay <= 0:
+            break
+        time.sleep(min(delay, 0.25))  # short slices, so an early stop is seen promptly
+    return deadline < end.at
 
 
 # -- the client behaviours --------------------------------------------------------------------
 
 
-def _nina(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, Any], device_state: bool) -> None:
+def _nina(rec: Recorder, end: End, rng: random.Random, options: dict[str, Any], device_state: bool) -> None:
     client = rec.client
     interval = float(options.get("interval", 2.0))
     cache: dict[str, tuple[float, Any]] = {}
@@ -176,7 +193,7 @@ def _nina(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, 
                 rec.fail("Connected is false for a connected client")
 
     next_poll = time.time() + rng.uniform(0.0, interval)
-    while _sleep_until(next_poll, stop_at):
+    while _sleep_until(next_poll, end):
         started = time.time()
         for name in NINA_SEQUENCE:
             read(name)
@@ -187,7 +204,7 @@ def _nina(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, 
         next_poll = max(next_poll + interval, time.time())
 
 
-def _phd2(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, Any]) -> None:
+def _phd2(rec: Recorder, end: End, rng: random.Random, options: dict[str, Any]) -> None:
     client = rec.client
     exposure = float(options.get("exposure", 2.0))
     allow_slewing = bool(options.get("allow_slewing", False))
@@ -199,7 +216,7 @@ def _phd2(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, 
 
     def wait_pulse(limit_s: float) -> None:
         deadline = time.time() + limit_s
-        while time.time() < min(deadline, stop_at):
+        while time.time() < min(deadline, end.at):
             good, value = rec.call(client.get, "ispulseguiding")
             if not good or not value:
                 return
@@ -207,7 +224,7 @@ def _phd2(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, 
             time.sleep(0.05)
 
     frame = time.time() + rng.uniform(0.0, exposure)
-    while _sleep_until(frame, stop_at):
+    while _sleep_until(frame, end):
         for directions in ((2, 3), (0, 1)):  # RA (E/W) then Dec (N/S)
             duration = rng.randint(50, 400)
             check_slewing()
@@ -221,29 +238,29 @@ def _phd2(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, 
         frame = max(frame + exposure, time.time())
 
 
-def _periodic_gets(rec: Recorder, stop_at: float, rng: random.Random, members: tuple[str, ...],
+def _periodic_gets(rec: Recorder, end: End, rng: random.Random, members: tuple[str, ...],
                    interval: float) -> None:
     client = rec.client
     tick = time.time() + rng.uniform(0.0, interval)
-    while _sleep_until(tick, stop_at):
+    while _sleep_until(tick, end):
         for member in members:
             rec.call(client.get, member)
         tick = max(tick + interval, time.time())
 
 
-def _saturate(rec: Recorder, stop_at: float, options: dict[str, Any]) -> None:
+def _saturate(rec: Recorder, end: End, options: dict[str, Any]) -> None:
     member = str(options.get("member", "tracking"))
     get = rec.client.get
     call = rec.call
-    while time.time() < stop_at:
+    while time.time() < end.at:
         call(get, member)
 
 
-def _put(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, Any]) -> None:
+def _put(rec: Recorder, end: End, rng: random.Random, options: dict[str, Any]) -> None:
     member = str(options["member"])
     interval = float(options.get("interval", 0.5))
     tick = time.time() + rng.uniform(0.0, interval)
-    while _sleep_until(tick, stop_at):
+    while _sleep_until(tick, end):
         if member == "pulseguide":
             fields: dict[str, object] = {"Direction": rng.randint(0, 3), "Duration": 20}
         elif member == "targetrightascension":
@@ -254,9 +271,9 @@ def _put(rec: Recorder, stop_at: float, rng: random.Random, options: dict[str, A
         tick = max(tick + interval, time.time())
 
 
-def _state_age(rec: Recorder, stop_at: float, rng: random.Random) -> None:
+def _state_age(rec: Recorder, end: End, rng: random.Random) -> None:
     tick = time.time() + rng.uniform(0.0, 0.1)
-    while _sleep_until(tick, stop_at):
+    while _sleep_until(tick, end):
         good, value = rec.call(rec.client.get, "devicestate")
         if good:
             items = {item.get("Name"): item.get("Value") for item in value if isinstance(item, dict)}
@@ -266,24 +283,24 @@ def _state_age(rec: Recorder, stop_at: float, rng: random.Random) -> None:
         tick = max(tick + 0.1, time.time())
 
 
-def _run_client(spec: ClientSpec, rec: Recorder, task: WorkerTask, rng: random.Random) -> None:
+def _run_client(spec: ClientSpec, rec: Recorder, end: End, rng: random.Random) -> None:
     kind, options = spec.kind, spec.options
     if kind in ("nina", "nina-ds"):
-        _nina(rec, task.stop_at, rng, options, device_state=kind == "nina-ds")
+        _nina(rec, end, rng, options, device_state=kind == "nina-ds")
     elif kind == "phd2":
-        _phd2(rec, task.stop_at, rng, options)
+        _phd2(rec, end, rng, options)
     elif kind == "planetarium":
-        _periodic_gets(rec, task.stop_at, rng, ("rightascension", "declination", "slewing"),
+        _periodic_gets(rec, end, rng, ("rightascension", "declination", "slewing"),
                        float(options.get("interval", 1.0)))
     elif kind == "tppa":
         members = ("devicestate",) if options.get("device_state") else ("rightascension", "declination")
-        _periodic_gets(rec, task.stop_at, rng, members, 0.1)
+        _periodic_gets(rec, end, rng, members, 0.1)
     elif kind == "saturate":
-        _saturate(rec, task.stop_at, options)
+        _saturate(rec, end, options)
     elif kind == "put":
-        _put(rec, task.stop_at, rng, options)
+        _put(rec, end, rng, options)
     elif kind == "state-age":
-        _state_age(rec, task.stop_at, rng)
+        _state_age(rec, end, rng)
     else:
         raise ValueError(f"unknown client kind {kind!r}")
 
@@ -297,6 +314,9 @@ def run_task(task: WorkerTask) -> dict[str, Any]:
     recorders: list[tuple[ClientSpec, Recorder]] = []
     threads = []
     cpu0 = time.process_time()
+    end = End(task.stop_at)
+    if task.stop_file:
+        threading.Thread(target=end.watch, args=(task.stop_file,), daemon=True).start()
     for spec, client_id in task.clients:
         client = AlpacaClient(task.host, task.port, client_id=client_id)
         rec = Recorder(client, task.measure_from)
@@ -306,11 +326,11 @@ def run_task(task: WorkerTask) -> dict[str, Any]:
         def body(spec: ClientSpec = spec, rec: Recorder = rec, thread_rng: random.Random = thread_rng) -> None:
             # Every client application connects first (NINA, PHD2 and the planetariums all do).
             if spec.kind not in ("saturate",):
-                _sleep_until(task.start_at - 1.0 + thread_rng.uniform(0.0, 0.8), task.stop_at)
+                _sleep_until(task.start_at - 1.0 + thread_rng.uniform(0.0, 0.8), end)
                 rec.call(rec.client.put, "connected", Connected="true")
-            _sleep_until(task.start_at, task.stop_at)
+            _sleep_until(task.start_at, end)
             try:
-                _run_client(spec, rec, task, thread_rng)
+                _run_client(spec, rec, end, thread_rng)
             finally:
                 rec.client.close()
 
@@ -335,7 +355,8 @@ def run_task(task: WorkerTask) -> dict[str, Any]:
         for name, values in rec.extra.items():
             entry["extra"].setdefault(name, array("d")).extend(values)
     stuck = sum(1 for thread in threads if thread.is_alive())
-    return {"labels": merged, "cpu_s": time.process_time() - cpu0, "stuck_threads": stuck, "pid": os.getpid()}
+    return {"labels": merged, "cpu_s": time.process_time() - cpu0, "stuck_threads": stuck, "pid": os.getpid(),
+            "ended": end.at}
 
 
 @dataclass
@@ -346,6 +367,12 @@ class Running:
     start_at: float
     measure_from: float
     stop_at: float
+    stop_file: str = ""
+
+    def stop_now(self) -> None:
+        """Ask the clients to stop at once (they notice within 0.25 s)."""
+        if self.stop_file:
+            Path(self.stop_file).touch()
 
     def wait(self) -> dict[str, Any]:
         results = [future.result(timeout=max(0.0, self.stop_at - time.time()) + 120.0) for future in self.futures]
@@ -364,7 +391,7 @@ class Running:
                     into["extra"].setdefault(name, array("d")).extend(values)
         return {
             "labels": merged,
-            "window": (self.measure_from, self.stop_at),
+            "window": (self.measure_from, min([self.stop_at, *(r["ended"] for r in results)])),
             "generator_cpu_s": sum(r["cpu_s"] for r in results),
             "stuck_threads": sum(r["stuck_threads"] for r in results),
         }
@@ -388,7 +415,7 @@ class WorkerPool:
         list(self._pool.map(_noop, range(processes)))
 
     def start(self, host: str, port: int, specs: list[ClientSpec], *, warmup: float, duration: float,
-              first_client_id: int = 1000, seed: int = 1, lead: float = 1.5) -> Running:
+              first_client_id: int = 1000, seed: int = 1, lead: float = 1.5, stop_file: str = "") -> Running:
         """Start ``specs`` spread over the processes; the returned handle knows the window."""
         clients: list[tuple[ClientSpec, int]] = []
         next_id = first_client_id
@@ -402,10 +429,10 @@ class WorkerPool:
             shares[index % self.processes].append(item)
         start_at = time.time() + lead
         tasks = [WorkerTask(host, port, tuple(share), start_at, start_at + warmup, start_at + warmup + duration,
-                            seed=seed * 100 + index)
+                            seed=seed * 100 + index, stop_file=stop_file)
                  for index, share in enumerate(shares) if share]
         futures = [self._pool.submit(run_task, task) for task in tasks]
-        return Running(futures, start_at, start_at + warmup, start_at + warmup + duration)
+        return Running(futures, start_at, start_at + warmup, start_at + warmup + duration, stop_file)
 
     def run(self, host: str, port: int, specs: list[ClientSpec], **kwargs: Any) -> dict[str, Any]:
         return self.start(host, port, specs, **kwargs).wait()

@@ -169,7 +169,7 @@ class Responder:
             # Sync and alignment
             "CM": lambda a, w: self._sync_reply(m.sync()),
             "SMMC": self._set_and_sync,
-            "NSC": lambda a, w: (m.clear_alignment(), "1")[1],
+            "NSC": self._always_one(m.clear_alignment),
             # Home, park
             "hC": silent(m.home),
             "Gh": self._homed,
@@ -181,8 +181,8 @@ class Responder:
             # Meridian and limits
             "STa": self._set_meridian,
             "GTa": lambda a, w: format_meridian(m.meridian()) + "#",
-            "SLE": lambda a, w: (m.set_limits_enabled(True), "1")[1],
-            "SLD": lambda a, w: (m.set_limits_enabled(False), "1")[1],
+            "SLE": self._always_one(lambda: m.set_limits_enabled(True)),
+            "SLD": self._always_one(lambda: m.set_limits_enabled(False)),
             "GLC": lambda a, w: _ok(m.limits_enabled()) + "#",
             "SLH": self._set_upper_limit,
             "GLH": lambda a, w: f"{m.altitude_limits()[1]}#",
@@ -193,7 +193,7 @@ class Responder:
             # Mode, buzzer, identity
             "AP": silent(lambda: m.request_mode(MountMode.EQUATORIAL)),
             "AA": silent(lambda: m.request_mode(MountMode.ALTAZ)),
-            "SBu": lambda a, w: (m.set_buzzer(int(a)) if w else None, None)[1],
+            "SBu": self._buzzer,
             "GBu": lambda a, w: f"{m.buzzer()}#",
             "GU": lambda a, w: format_status(m.status()) + "#",
             "GV": lambda a, w: m.firmware.version + "#",
@@ -206,6 +206,16 @@ class Responder:
         return table
 
     @staticmethod
+    def _always_one(action: Callable[[], object]) -> Handler:
+        """A setter that cannot fail: act, answer a bare ``1``."""
+
+        def handler(_argument: str, _well_formed: bool) -> str:
+            action()
+            return "1"
+
+        return handler
+
+    @staticmethod
     def _silent(action: Callable[[], object]) -> Handler:
         """A no-reply command: act (only when well formed), answer nothing."""
 
@@ -215,6 +225,11 @@ class Responder:
             return None
 
         return handler
+
+    def _buzzer(self, argument: str, well_formed: bool) -> None:
+        if well_formed:
+            self.model.set_buzzer(int(argument))
+        return None  # :SBu# answers nothing (INDI and INDIGO read no reply)
 
     # ---------------------------------------------------------------- date, time, site
 

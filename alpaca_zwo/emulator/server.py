@@ -375,8 +375,9 @@ class EmulatorServer:
         self.faults.remove_listener(self._on_fault)
         if self._listener is not None:
             with contextlib.suppress(OSError):
-                self._listener.shutdown(socket.SHUT_RDWR)  # wakes a blocked accept() at once on Linux
-        self._close_lines(include_pty=True)
+                self._listener.shutdown(socket.SHUT_RDWR)  # wakes the accept loop's select() at once
+        with self._accept_lock:  # no line can be half-registered past this point
+            self._close_lines(include_pty=True)
         for thread in self._threads:
             thread.join(2.0)
         self._threads.clear()

@@ -14,14 +14,19 @@ ConformU does, and formatted with ``ToString(InvariantCulture)``.
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Callable
 from urllib.parse import quote
 
 import requests
 
-from tests.conformance.ascom import AlpacaTelescope, ConformTimeout, EmulatedClock, Stopwatch, dotnet_double, \
-    utc_date_text
+from tests.conformance.ascom import (
+    AlpacaTelescope,
+    ConformTimeout,
+    EmulatedClock,
+    Stopwatch,
+    dotnet_double,
+    utc_date_text,
+)
 from tests.conformance.report import Report
 
 TEST_CLIENT_ID = 123456
@@ -134,7 +139,7 @@ class ProtocolTester:
         except Exception:
             return 0
 
-    def test_telescope(self) -> None:  # noqa: PLR0915 - ConformU's own sequence, one member after another
+    def test_telescope(self) -> None:
         t = self.t
         try:
             t.Connected = True
@@ -252,7 +257,8 @@ class ProtocolTester:
             self.report.debug("Connected", f"client Connected=False failed: {ex!r}")
 
     # -- waits ------------------------------------------------------------------------------------------
-    def wait_while(self, action: str, condition: Callable[[], bool], poll_ms: int = 500, timeout_s: float = 300) -> None:
+    def wait_while(self, action: str, condition: Callable[[], bool], poll_ms: int = 500,
+                   timeout_s: float = 300) -> None:
         """APT WaitWhile on the emulated clock; a timeout is reported as an ISSUE and the run goes on."""
         sw = Stopwatch(self.clock)
         try:
@@ -346,7 +352,7 @@ class ProtocolTester:
         path = f"/api/v1/telescope/{self.device_number}/{method.lower()}"
         self.send_to_device(f"{verb} {method}", prefix, path, verb, params, expected, **flags)
 
-    def send_to_device(self, test: str, prefix: str, path: str, verb: str, params: Params,  # noqa: C901
+    def send_to_device(self, test: str, prefix: str, path: str, verb: str, params: Params,
                        expected: list[int], *, badly_cased_ctid: bool = False, accept_invalid_value: bool = False,
                        negative_id_test: bool = False, interface_version_call: bool = False,
                        bad_uri: bool = False) -> None:
@@ -356,10 +362,8 @@ class ProtocolTester:
         for name, value in params:
             if name.upper() == "CLIENTTRANSACTIONID":
                 has_ctid = True
-                if verb == "GET" or name == "ClientTransactionID":
-                    expected_ctid = parse_uint32(value)
-                else:
-                    expected_ctid = 0  # a miscased form name must be ignored by the device
+                # A miscased form name must be ignored by the device: 0 is expected back.
+                expected_ctid = parse_uint32(value) if verb == "GET" or name == "ClientTransactionID" else 0
         url = self.base + path
         timeout = max(self.clock.real(100.0), 5.0)
         try:
@@ -480,6 +484,3 @@ class ProtocolTester:
                     r.issue(test, f"{prefix} - A DeviceState element lacks Name or Value (case sensitive): {item!r}",
                             detail)
 
-
-def elapsed(started: float) -> float:
-    return time.monotonic() - started

@@ -98,3 +98,7 @@ class Report:
         lines = [f"{len(findings)} error(s) and issue(s):"] if findings else []
         lines += [f"  {e.level.value:<6} {e.test}: {e.message}" for e in findings]
         return "\n".join(lines)
+
+
+#: Finished runs in this pytest session, for the terminal summary (tests/conformance/conftest.py).
+RESULTS: list[tuple[str, Report]] = []

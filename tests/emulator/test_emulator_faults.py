@@ -100,6 +100,22 @@ def test_close_connections_drops_every_client(emu: EmulatorServer, connect: Call
     assert connect().ask(":GVP#") == "AM5#"  # the mount itself is fine
 
 
+def test_close_also_drops_connections_not_yet_accepted(emu: EmulatorServer) -> None:
+    """A client whose handshake just completed (still in the listen backlog) is dropped too."""
+    for _ in range(20):
+        sock = socket.create_connection(("127.0.0.1", emu.port), timeout=3.0)
+        try:
+            emu.faults.close_connections()
+            sock.settimeout(3.0)
+            try:
+                sock.sendall(b":GVP#")
+                assert sock.recv(100) == b""
+            except (ConnectionResetError, BrokenPipeError):
+                pass
+        finally:
+            sock.close()
+
+
 def test_outage_refuses_new_connections_for_its_duration(
     emu: EmulatorServer, mount: MountClient, connect: Callable[[], MountClient]
 ) -> None:

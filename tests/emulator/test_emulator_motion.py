@@ -98,6 +98,7 @@ def test_goto_during_goto_is_refused_with_e3(ready: MountClient, model: MountMod
     assert ready.exact(":MS#") == "0"
     clock.advance(1.0)
     assert ready.exact(":MS#") == "e3#"
+    assert ready.exact(":Td#") == "0"  # tracking cannot be switched off mid-GOTO (ZWO v2.1)
     ready.send(":Q#")  # INDI: abort, then re-target
     assert "N" in flags(ready)
     assert ready.exact(":MS#") == "0"
@@ -475,6 +476,7 @@ def test_custom_park_position_needs_a_home_first(ready: MountClient, model: Moun
     assert ready.exact(":Sp01#") == "5"
     ready.send(":hC#")
     assert ready.exact(":Sp01#") == "9"  # moving
+    assert ready.exact(":MS#") == "e3#"  # no GOTO while homing
     wait_slew(ready, clock)
     goto_ha(ready, model, clock, -1.0, 50.0)
     assert ready.exact(":Sp01#") == "1"

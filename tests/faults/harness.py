@@ -155,15 +155,34 @@ class Call:
 
 
 class CallLog:
-    """Every request any test client made, for the end-of-test health verdict."""
+    """Every request any test client made, for the end-of-test health verdict.
 
-    def __init__(self) -> None:
+    ``keep=False`` (the soak) keeps only counters and the problems found, judged as each call
+    arrives against ``allowed_errors``, so the instrument itself does not grow with the run.
+    """
+
+    def __init__(self, *, keep: bool = True, allowed_errors: Iterable[int] = ()) -> None:
         self._calls: list[Call] = []
         self._lock = threading.Lock()
+        self._keep = keep
+        self._allowed = set(allowed_errors)
+        self._problems: list[str] = []
+        self.count = 0
+        self.errors: dict[int, int] = {}
+        self._slowest: dict[str, Call] = {}
 
     def add(self, call: Call) -> None:
         with self._lock:
-            self._calls.append(call)
+            self.count += 1
+            if call.error_number:
+                self.errors[call.error_number] = self.errors.get(call.error_number, 0) + 1
+            slowest = self._slowest.get(call.verb)
+            if slowest is None or call.elapsed > slowest.elapsed:
+                self._slowest[call.verb] = call
+            if self._keep:
+                self._calls.append(call)
+            else:
+                self._problems.extend(_problems_of(call, self._allowed))
 
     def calls(self, since: float = 0.0, until: float = float("inf")) -> list[Call]:
         with self._lock:
@@ -175,24 +194,33 @@ class CallLog:
         ``allowed_errors`` are ASCOM error numbers the scenario expects (a command refused during an
         outage is the right answer, not a protocol error); any other non-zero ErrorNumber is reported.
         """
+        if not self._keep:
+            with self._lock:
+                return list(self._problems)
         allowed = set(allowed_errors)
-        found = []
+        found: list[str] = []
         for call in self.calls(since):
-            if call.status is None:
-                found.append(f"no HTTP answer: {call.describe()}")
-            elif call.status != 200:
-                found.append(f"HTTP {call.status}: {call.describe()}")
-            elif call.echoed_ctid != call.ctid:
-                found.append(f"ClientTransactionID {call.ctid} answered as {call.echoed_ctid}: {call.describe()}")
-            elif call.error_number not in (0, *allowed):
-                found.append(f"unexpected ASCOM error: {call.describe()}")
-            if call.elapsed > call.limit:
-                found.append(f"slower than the {call.limit:.1f} s clients wait: {call.describe()}")
+            found.extend(_problems_of(call, allowed))
         return found
 
-    def slowest(self, verb: str | None = None, since: float = 0.0) -> Call | None:
-        calls = [c for c in self.calls(since) if verb is None or c.verb == verb]
-        return max(calls, key=lambda c: c.elapsed, default=None)
+    def slowest(self, verb: str) -> Call | None:
+        with self._lock:
+            return self._slowest.get(verb)
+
+
+def _problems_of(call: Call, allowed: set[int]) -> list[str]:
+    found = []
+    if call.status is None:
+        found.append(f"no HTTP answer: {call.describe()}")
+    elif call.status != 200:
+        found.append(f"HTTP {call.status}: {call.describe()}")
+    elif call.echoed_ctid != call.ctid:
+        found.append(f"ClientTransactionID {call.ctid} answered as {call.echoed_ctid}: {call.describe()}")
+    elif call.error_number not in (0, *allowed):
+        found.append(f"unexpected ASCOM error: {call.describe()}")
+    if call.elapsed > call.limit:
+        found.append(f"slower than the {call.limit:.1f} s clients wait: {call.describe()}")
+    return found
 
 
 class AlpacaClient:

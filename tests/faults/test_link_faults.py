@@ -354,10 +354,10 @@ def test_dropped_reply(rig_factory: RigFactory) -> None:
     with Monitor(rig.client(MAIN_ID), rig.truth) as monitor:
         time.sleep(0.3)
         dropped = rig.faults.dropped
-        fault_at, fault_truth = time.monotonic(), rig.truth()
         rig.faults.drop_replies(1)
-        wait_until(lambda: rig.faults.dropped > dropped, 5, "a reply to be dropped")
-        fresh = _fresh_after(monitor, fault_truth + timedelta(seconds=rig.link.timeout * 4.0), fault_at, 15)
+        wait_until(lambda: rig.faults.dropped > dropped, 5, "a reply to be dropped", interval=0.01)
+        fault_at, fault_truth = time.monotonic(), rig.truth()
+        fresh = _fresh_after(monitor, fault_truth, fault_at, 15)
         poll_recovery = fresh.at - fault_at
 
         ra, dec = _altaz_target(rig, main, 50.0, 200.0)
