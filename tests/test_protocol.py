@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import itertools
 from datetime import date, time
 
 import pytest
@@ -230,9 +231,16 @@ def test_match_command_prefers_exact_and_longest_codes() -> None:
     assert malformed is not None and malformed.command.code == "Sd" and not malformed.well_formed
 
 
+def test_framer_keeps_colons_inside_arguments() -> None:
+    framer = p.RequestFramer()
+    assert framer.feed(b":SL22:05:09#:Sd+45*30:15#:SMTI07/10/26&20:00:00&-01:00#") == [
+        "SL22:05:09", "Sd+45*30:15", "SMTI07/10/26&20:00:00&-01:00"]
+    assert framer.feed(b":Sr12:3") == [] and framer.feed(b"4:56#") == ["Sr12:34:56"]  # split across reads
+
+
 def test_framer_drops_unterminated_fragments_and_stray_bytes() -> None:
     framer = p.RequestFramer()
-    assert framer.feed(b":Rg0.30:GU#\r\n#garbage:GR#:Q") == ["GU", "GR"]
+    assert framer.feed(b":Rg0.30:GU#\r\n#garbage:GR#:Q") == ["GU", "GR"]  # INDI's ':Rg0.30' without '#'
     assert framer.feed(b"#") == ["Q"]
     assert framer.dropped == 1
     assert framer.feed(b":" + b"x" * 100 + b"#:GD#") == ["GD"]
@@ -256,7 +264,8 @@ def test_framer_never_raises_and_yields_bounded_bodies(data: bytes) -> None:
     framer = p.RequestFramer()
     for body in framer.feed(data):
         assert len(body) <= p.RequestFramer.MAX_LENGTH
-        assert ":" not in body and "#" not in body
+        assert "#" not in body
+        assert all(not (a == ":" and b.isascii() and b.isalpha()) for a, b in itertools.pairwise(body))
         p.match_command(body)  # never raises
 
 

@@ -6,7 +6,7 @@ shared/alpaca/conformu-checklist.md) and must come out exactly as clean as Confo
 ``conformance: 0 errors, 0 issues`` and ``alpacaprotocol: 0 errors, 0 issues, 0 information``.
 
 The server under test is the real product: waitress on a loopback port, the real Telescope, Mount
-and Link, and the built-in emulator behind a real TCP socket paced at the mount's 9600 baud.
+and Link, and the built-in emulator behind a real TCP socket paced like the mount's 9600-baud line.
 
 Time scaling. The emulator's clock runs ``CONFORMU_SPEED`` times faster than real time (default 5)
 so the run fits comfortably in CI; the server measures mount time on that clock (the
@@ -18,7 +18,12 @@ timeouts, the 1 s tracking settle, the PulseGuide "returned in < 1 s" test - all
 stated number of *mount* seconds, i.e. that number divided by the speed in real seconds. Every
 check runs; none is shortened or skipped. HTTP timeouts (5/10/100 s) are scaled the same way but
 never below 2 real seconds (they only guard against hangs). Timing targets (FAST/STANDARD/
-EXTENDED) are reported in real seconds and, as in ConformU, never graded.
+EXTENDED) are reported in real seconds and, as in ConformU, never graded. The emulator paces the
+serial line in real time, so it runs at 9600 x speed baud: a 20-byte reply then takes the same
+number of mount seconds as on the real 9600-baud USB line, and the server's position estimates see
+the same latencies as with a real mount. (The server's own poll and supervisor intervals are real
+seconds and are not scaled; at speed S they are S times longer in mount time, which only makes the
+run harsher than a real-time one.)
 
 The printed log lists every check like ConformU's report; the counts line is also added to pytest's
 terminal summary (tests/conformance/conftest.py).
@@ -43,7 +48,10 @@ from tests.conftest import ServerFactory, make_settings
 alpaca_telescope = pytest.importorskip("alpaca.telescope")
 
 SPEED = float(os.environ.get("CONFORMU_SPEED", "5"))
-BAUD = int(os.environ.get("CONFORMU_BAUD", "9600"))
+#: The mount's line speed. The emulator paces bytes in real time, so the line is run at
+#: 9600 x speed baud: a reply then takes as many *mount* seconds as on the real 9600-baud line.
+MOUNT_BAUD = 9600
+BAUD = int(MOUNT_BAUD * SPEED)
 
 
 @pytest.fixture
@@ -91,7 +99,7 @@ def test_conformu_conformance(server_factory: ServerFactory, conformu_client_id:
     RESULTS.append(("conformance", report))
     print(report.render())
     print(_timing_summary(tester.timings))
-    print(f"{len(client.calls)} requests through ConformU's client; emulator speed {SPEED:g}x, {BAUD} baud")
+    print(f"{len(client.calls)} requests through ConformU's client; emulator speed {SPEED:g}x, line {BAUD} baud")
     print(counts)
     assert not tester.abandoned, "ConformU abandoned the run:\n" + report.summary()
     assert (report.errors, report.issues) == (0, 0), f"{counts}\n{report.summary()}"
@@ -112,7 +120,7 @@ def test_conformu_alpacaprotocol(server_factory: ServerFactory) -> None:
     counts = f"alpacaprotocol: {report.errors} errors, {report.issues} issues, {report.infos} information"
     RESULTS.append(("alpacaprotocol", report))
     print(report.render())
-    print(f"{tester.requests_sent} protocol requests; emulator speed {SPEED:g}x, {BAUD} baud")
+    print(f"{tester.requests_sent} protocol requests; emulator speed {SPEED:g}x, line {BAUD} baud")
     print(counts)
     assert (report.errors, report.issues, report.infos) == (0, 0, 0), (
         f"{counts}\n{report.summary()}\n" + "\n".join(f"  INFO   {e.test}: {e.message}  [{e.detail}]"
