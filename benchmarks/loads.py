@@ -113,15 +113,19 @@ class Recorder:
             if len(self.error_samples) < self.keep_samples:
                 self.error_samples.append(message)
 
-    def call(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple[bool, Any]:
-        """Run one client call; (True, value) on a valid reply, (False, None) otherwise."""
-        counted = time.time() >= self.measure_from
+    def call(self, fn: Callable[..., Any], *args: Any, always: bool = False, **kwargs: Any) -> tuple[bool, Any]:
+        """Run one client call; (True, value) on a valid reply, (False, None) otherwise.
+
+        A call counts if it *ends* inside the window, so one that was stalled across the start of
+        the window (e.g. a connection the server did not accept yet) shows up with its full
+        latency instead of silently vanishing. ``always`` counts a failure whenever it happens.
+        """
         try:
             value = fn(*args, **kwargs)
         except ReplyError as exc:
-            self._failed(str(exc), counted)
+            self._failed(str(exc), always or time.time() >= self.measure_from)
             return False, None
-        if counted:
+        if time.time() >= self.measure_from:
             self.ok += 1
             self.latency_ms.append(self.client.latency * 1000.0)
         return True, value
@@ -327,7 +331,7 @@ def run_task(task: WorkerTask) -> dict[str, Any]:
             # Every client application connects first (NINA, PHD2 and the planetariums all do).
             if spec.kind not in ("saturate",):
                 _sleep_until(task.start_at - 1.0 + thread_rng.uniform(0.0, 0.8), end)
-                rec.call(rec.client.put, "connected", Connected="true")
+                rec.call(rec.client.put, "connected", always=True, Connected="true")
             _sleep_until(task.start_at, end)
             try:
                 _run_client(spec, rec, end, thread_rng)

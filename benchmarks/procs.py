@@ -24,6 +24,8 @@ from typing import Any
 
 import psutil
 
+REPO = Path(__file__).resolve().parent.parent
+
 __all__ = ["Emulator", "Proc", "emulator_log_times", "start_alpaca_zwo", "start_emulator", "start_peer"]
 
 
@@ -133,12 +135,22 @@ def start_emulator(run_dir: Path, baud: int, cpus: tuple[int, ...] | None) -> Em
     return Emulator(proc)
 
 
-def start_alpaca_zwo(run_dir: Path, device_port: int, cpus: tuple[int, ...] | None) -> Proc:
-    """``python -m alpaca_zwo`` with a fresh config file, exactly as the README starts it."""
+def start_alpaca_zwo(run_dir: Path, device_port: int, cpus: tuple[int, ...] | None, *,
+                     threads: int | None = None, patches: str = "") -> Proc:
+    """``python -m alpaca_zwo`` with a fresh config file, exactly as the README starts it.
+
+    ``threads`` overrides the config's waitress worker-thread count (for the thread sweep);
+    ``patches`` runs it through :mod:`benchmarks.patched_server` to measure candidate changes.
+    """
     config = run_dir / "config.toml"
-    argv = [sys.executable, "-m", "alpaca_zwo", "--host", "127.0.0.1", "--port", "0", "--discovery-port", "0",
+    if threads is not None:
+        config.write_text(f"[server]\nthreads = {threads}\n")
+    module = ["-m", "benchmarks.patched_server", "--patch", patches, "--"] if patches else ["-m", "alpaca_zwo"]
+    argv = [sys.executable, *module, "--host", "127.0.0.1", "--port", "0", "--discovery-port", "0",
             "--config", str(config), "--device", f"socket://127.0.0.1:{device_port}"]
-    return _spawn("alpaca-zwo", argv, run_dir, {"http": r"Alpaca API:\s+http://127\.0\.0\.1:(\d+)/"}, cpus=cpus)
+    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH", "")]))}
+    return _spawn("alpaca-zwo", argv, run_dir, {"http": r"Alpaca API:\s+http://127\.0\.0\.1:(\d+)/"}, cpus=cpus,
+                  env=env)
 
 
 def start_peer(run_dir: Path, cpus: tuple[int, ...] | None, *, access_log: bool = True) -> Proc:

@@ -94,6 +94,10 @@ def render(results: dict[str, Any]) -> str:
     lines.append(f"- packages: {', '.join(f'{k} {v}' for k, v in machine.get('packages', {}).items())}")
     lines.append(f"- commit {machine.get('commit', '?')}; load average at start {machine.get('loadavg_start')}, "
                  f"at end {meta.get('loadavg_end')}; pinning: {meta.get('plan', {}).get('pin')}")
+    plan = meta.get("plan", {})
+    patched = f"patched with {plan['server_patch']}" if plan.get("server_patch") else "as committed"
+    threads = f", waitress threads {plan['server_threads']}" if plan.get("server_threads") else ""
+    lines.append(f"- alpaca-zwo: {patched}{threads}")
     if meta.get("note"):
         lines.append(f"- conditions: {meta['note']}")
     lines += ["", "### Goals", "", "| Goal | Measured | Verdict |", "|---|---|---|"]

@@ -20,7 +20,7 @@ import threading
 import time
 import urllib.request
 import zlib
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -51,19 +51,25 @@ class Plan:
     http_tests: tuple[str, ...]
     abort_n: int
     soak_s: float
+    warmup_s: float  # before each window: clients connect, stagger and settle
+    server_threads: int | None = None  # None: the server's configured default
+    server_patch: str = ""  # candidate server changes (benchmarks.patched_server), "" = the server as is
+    peer: bool = True  # also run every HTTP test against the peer
 
     @classmethod
     def make(cls, args: argparse.Namespace) -> Plan:
         if args.quick:
             plan = cls(True, args.workers, args.pin, args.baud, 4.0,
                        (("rest", 1), ("rest", 100), ("guiding", 10), ("slewing", 10)), 4.0,
-                       args.connections, 4.0, ("sat-tracking", "nina-50", "night"), 8, 0.0)
+                       args.connections, 4.0, ("sat-tracking", "nina-50", "night"), 6, 0.0, 2.0)
         else:
             phases = tuple((state, clients) for state in ("rest", "guiding", "slewing") for clients in (1, 10, 50, 100))
             plan = cls(False, args.workers, args.pin, args.baud, 20.0, phases, 15.0, args.connections, 20.0,
                        ("sat-tracking", "sat-rightascension", "nina-50", "nina-ds-50", "nina-100", "night",
-                        "put-under-50"), 100, args.soak_minutes * 60.0)
-        return plan
+                        "put-under-50"), 100, args.soak_minutes * 60.0, 3.0)
+        if args.tests:
+            plan = replace(plan, http_tests=tuple(args.tests.split(",")))
+        return replace(plan, server_threads=args.server_threads, peer=not args.no_peer, server_patch=args.server_patch)
 
 
 def http_specs(test: str, plan: Plan) -> tuple[list[ClientSpec], float]:
@@ -160,7 +166,8 @@ class Bench:
     def start(self) -> None:
         self.emulator = start_emulator(self.run_dir, self.plan.baud, self.server_cpus)
         self.procs.append(self.emulator.proc)
-        server = start_alpaca_zwo(self.run_dir, self.emulator.proc.ports["tcp"], self.server_cpus)
+        server = start_alpaca_zwo(self.run_dir, self.emulator.proc.ports["tcp"], self.server_cpus,
+                                  threads=self.plan.server_threads, patches=self.plan.server_patch)
         self.procs.append(server)
         peer = start_peer(self.run_dir, self.server_cpus)
         self.procs.append(peer)
@@ -216,8 +223,7 @@ class Bench:
         slewer = Slewer(self.ours, stop) if state == "slewing" else None
         if slewer is not None:
             slewer.start()
-        warmup = 3.0
-        running = self.pool.start("127.0.0.1", self.ours.proc.port, specs, warmup=warmup,
+        running = self.pool.start("127.0.0.1", self.ours.proc.port, specs, warmup=self.plan.warmup_s,
                                   duration=self.plan.serial_window_s, seed=clients)
         _sleep_until(running.measure_from)
         before, cpu0 = self.emulator.stats(), self.ours.proc.cpu_s()
@@ -265,7 +271,7 @@ class Bench:
     def http_test(self, target: Target, test: str) -> dict[str, Any]:
         assert self.pool is not None
         specs, duration = http_specs(test, self.plan)
-        warmup = 1.0 if test.startswith("sat-") else 2.5
+        warmup = 1.0 if test.startswith("sat-") else self.plan.warmup_s
         running = self.pool.start("127.0.0.1", target.proc.port, specs, warmup=warmup, duration=duration,
                                   seed=zlib.crc32(test.encode()) % 1000)
         _sleep_until(running.measure_from)
@@ -306,11 +312,14 @@ class Bench:
 
     def http_tests(self) -> None:
         assert self.ours is not None and self.peer is not None
+        targets = (self.ours, self.peer) if self.plan.peer else (self.ours,)
         for test in self.plan.http_tests:
-            for target in (self.ours, self.peer):
+            for target in targets:
                 self.results["http"].append(self.http_test(target, test))
             if test == "nina-100":
                 self.rss("after nina-100")
+        if not self.plan.peer:
+            return
         # The peer again without its per-request access log, so the ratio is not the log's doing.
         peer_nolog = start_peer(self.run_dir, self.server_cpus, access_log=False)
         self.procs.append(peer_nolog)
@@ -330,7 +339,7 @@ class Bench:
 
     def abort_tests(self) -> None:
         assert self.ours is not None and self.peer is not None
-        for target in (self.ours, self.peer):
+        for target in (self.ours, self.peer) if self.plan.peer else (self.ours,):
             for kind in ("abortslew", "moveaxis0"):
                 self.results["abort"].append(self.abort_test(target, kind))
 
@@ -340,7 +349,7 @@ class Bench:
         n = self.plan.abort_n
         budget = n * 2.5 + 10.0
         stop_file = self.run_dir / f"stop-{target.proc.name}-{kind}"
-        running = self.pool.start("127.0.0.1", target.proc.port, [ClientSpec("nina", 50)], warmup=2.5,
+        running = self.pool.start("127.0.0.1", target.proc.port, [ClientSpec("nina", 50)], warmup=self.plan.warmup_s,
                                   duration=budget, seed=7, stop_file=str(stop_file))
         _sleep_until(running.measure_from)
         rng = random.Random(42)
@@ -538,11 +547,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baud", type=int, default=9600, help="emulator line rate (default 9600)")
     parser.add_argument("--soak-minutes", type=float, default=10.0, help="memory soak length in full mode")
     parser.add_argument("--only", default="", help="comma list of parts: serial,http,abort,soak (default all)")
+    parser.add_argument("--tests", default="", help="comma list of HTTP tests (default: the mode's list)")
+    parser.add_argument("--server-threads", type=int, help="override alpaca-zwo's waitress thread count")
+    parser.add_argument("--server-patch", default="", metavar="P[,P]",
+                        help="run alpaca-zwo with candidate changes applied: urgent-stop, fixed-rate-poll, "
+                             "connection-limit (see benchmarks/patched_server.py)")
+    parser.add_argument("--no-peer", action="store_true", help="skip the peer (for sweeps of our own settings)")
     parser.add_argument("--note", default="", help="free text stored with the results (machine conditions)")
     args = parser.parse_args(argv)
     plan = Plan.make(args)
     parts = set(filter(None, args.only.split(","))) or {"serial", "http", "abort", "soak"}
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + ("-quick" if plan.quick else "")
+    stamp += f"-t{plan.server_threads}" if plan.server_threads else ""
+    stamp += "-patched" if plan.server_patch else ""
     RESULTS.mkdir(parents=True, exist_ok=True)
     run_dir = RESULTS / stamp
     run_dir.mkdir()

@@ -1335,14 +1335,14 @@ def test_tracking_on_off_really_tracks(server: AlpacaZwoServer, api: Api, model:
     api.ok("Tracking", Tracking=False)
     assert api.value("Tracking") is False and not model.status().tracking
     ra0, t0 = api.value("RightAscension"), mount_seconds(server)
-    wait_until(lambda: mount_seconds(server) > t0 + 60.0, 30.0, "a minute of mount time")
+    wait_until(lambda: mount_seconds(server) > t0 + 40.0, 30.0, "40 s of mount time")
     drift_h = wrap12(api.value("RightAscension") - ra0)
     elapsed = mount_seconds(server) - t0
     assert drift_h == pytest.approx(elapsed * SIDEREAL_HOURS_PER_S, abs=15.0 / 3600.0)  # one poll period
     api.ok("Tracking", Tracking=True)
     assert api.value("Tracking") is True and model.status().tracking
     ra1, t1 = api.value("RightAscension"), mount_seconds(server)
-    wait_until(lambda: mount_seconds(server) > t1 + 60.0, 30.0, "a minute of mount time")
+    wait_until(lambda: mount_seconds(server) > t1 + 40.0, 30.0, "40 s of mount time")
     assert abs(wrap12(api.value("RightAscension") - ra1)) < 1.5 / 3600.0
 
 
@@ -1533,7 +1533,7 @@ def test_utc_date_is_iso8601_with_z_and_agrees_with_the_mount_clock(server: Alpa
     assert emulator is not None
     reply = api.get("UTCDate")
     value = parse_utc(reply.value)
-    assert abs((value - emulator.clock.now()).total_seconds()) < 2.0 * SPEED * 0.1 + 1.0
+    assert abs((value - emulator.clock.now()).total_seconds()) < 2.0  # mount seconds: a round trip or two
 
 
 @pytest.mark.parametrize("text", ["2031-03-04T17:45:31Z", "2031-03-04T17:45:31.123Z",
@@ -1655,8 +1655,7 @@ def test_device_state_is_coherent(api: Api, server: AlpacaZwoServer) -> None:
              "SideOfPier", "SiderealTime", "Slewing", "Tracking", "UTCDate"]
     assert set(state) in ({*names}, {*names, "TimeStamp"})
     for name in ("AtHome", "AtPark", "IsPulseGuiding", "Slewing", "Tracking"):
-        assert state[name] is api.value(name) or name == "Tracking", name
-        assert isinstance(state[name], bool)
+        assert isinstance(state[name], bool) and state[name] == api.value(name), name  # at rest: no change
     assert isinstance(state["SideOfPier"], int) and state["SideOfPier"] == api.value("SideOfPier")
     for name in ("Altitude", "Azimuth", "Declination", "RightAscension", "SiderealTime"):
         assert isinstance(state[name], float)
@@ -1716,7 +1715,6 @@ def test_two_devices_are_independent(server_factory: ServerFactory) -> None:
     south.connect()
     north.ok("TargetRightAscension", TargetRightAscension=2.5)
     assert south.get("TargetRightAscension").error == VALUE_NOT_SET
-    south.ok("SiteElevation", SiteElevation=500.0)  # the site is shared: one observatory
 
     south_before = south.state()
     north.ok("SlewToCoordinatesAsync", RightAscension=north.ra_at_ha(-2.0), Declination=30.0)

@@ -209,7 +209,7 @@ def test_usb_unplugged_mid_slew(rig_factory: RigFactory) -> None:
     verdict = Verdict("USB unplugged mid-slew")
     main = rig.clients[0]
     main.command("tracking", Tracking="true")
-    ra, dec = _altaz_target(rig, main, 55.0, 150.0)
+    ra, dec = sky.ra_from_hour_angle(main.value("siderealtime"), -4.0), 60.0  # 30° on each axis from home
     with Monitor(rig.client(MAIN_ID), rig.truth, interval=0.1) as monitor:
         main.command("slewtocoordinatesasync", RightAscension=ra, Declination=dec)
         slew_at = time.monotonic()

@@ -1,0 +1,589 @@
+"""Schemathesis against the official Alpaca OpenAPI files, run on a live alpaca-zwo server.
+
+Shared by the CI test (``test_schemathesis.py``, a bounded number of examples) and the long run
+(``long_run.py``, tens of thousands of requests), so both apply exactly the same checks.
+
+The two YAML files in ``spec/`` are byte-for-byte copies of ASCOMInitiative/ASCOMRemote
+``Swagger/`` at commit bf34ab38aa81947a5ae4e5674ac2fd714fcb5836 (MIT licence header kept; provenance
+and sha256 sums in ``shared/alpaca/spec/SOURCE.md``, checked by ``test_spec_copies_are_pristine``).
+They are never edited on disk. Where the official schema is itself wrong, :func:`device_spec` and
+:func:`management_spec` patch the loaded dict, each patch with its reason, so the list of spec
+problems is in one place and the server is held to everything else.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import threading
+import time
+import zlib
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import requests
+import schemathesis
+import yaml
+from schemathesis import Case
+from schemathesis.checks import not_a_server_error
+from schemathesis.core.failures import AcceptedNegativeData, Failure, FailureGroup
+from schemathesis.core.parameters import ParameterLocation
+from schemathesis.specs.openapi.checks import (
+    content_type_conformance,
+    negative_data_rejection,
+    positive_data_acceptance,
+    response_schema_conformance,
+    status_code_conformance,
+)
+
+from alpaca_zwo.config import EmulatorSettings, Settings
+from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.store import SettingsStore
+from tests.conftest import make_settings
+
+SPEC_DIR = Path(__file__).parent / "spec"
+DEVICE_SPEC = SPEC_DIR / "AlpacaDeviceAPI_v1.yaml"
+MANAGEMENT_SPEC = SPEC_DIR / "AlpacaManagementAPI_v1.yaml"
+#: sha256 of the upstream files (shared/alpaca/spec/SOURCE.md).
+SPEC_SHA256 = {
+    DEVICE_SPEC.name: "3c8d9569d0a6dbedea6393a05b87dba64c185f972a556bc4c833d7b43697ce1b",
+    MANAGEMENT_SPEC.name: "986080e160d5bbe1fd0a7f9349d39d8904d58e666f7c25f72a7c47270d276aa0",
+}
+
+UINT32_MAX = 4294967295
+INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
+#: The fuzzing harness keeps the telescope connected under this ClientID; generated requests use others.
+KEEPER_CLIENT_ID = 3141592653
+#: Emulator clock rate: slews take a fraction of a second, so motion members do real work quickly.
+FUZZ_SPEED = 50.0
+REQUEST_TIMEOUT_S = 60.0  # a synchronous slew may legitimately take a while; a hang must not be forever
+
+#: Device-API paths that belong to a telescope: its own and the common ones.
+DEVICE_PATHS = r"^/(telescope|\{device_type\})/"
+
+
+def spec_sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+# ================================================================================================
+# The official schemas, and where they are wrong
+# ================================================================================================
+
+
+def _walk(node: Any) -> Iterator[dict[str, Any]]:
+    """Every mapping in a loaded YAML tree (schemas nest in lists and mappings alike)."""
+    if isinstance(node, dict):
+        yield node
+        for value in node.values():
+            yield from _walk(value)
+    elif isinstance(node, list):
+        for value in node:
+            yield from _walk(value)
+
+
+def _bound_integer_formats(raw: dict[str, Any]) -> int:
+    """SPEC PROBLEM 1: ``format: uint32`` / ``int32`` without ``minimum``/``maximum``.
+
+    In OpenAPI 3.1 (JSON Schema 2020-12) ``format`` is an annotation, not a constraint, so the
+    schema as written accepts ClientID 10**20 or Duration 2**40, which the spec's own prose ("1 to
+    4294967295") and every real client rule out, and a generator produces them as *valid* data. The
+    intended range is added explicitly; existing tighter bounds are kept.
+    """
+    patched = 0
+    for node in _walk(raw):
+        fmt = node.get("format")
+        if node.get("type") == "integer" and fmt in ("uint32", "int32"):
+            low, high = (0, UINT32_MAX) if fmt == "uint32" else (INT32_MIN, INT32_MAX)
+            node["minimum"] = max(node.get("minimum", low), low)
+            node["maximum"] = min(node.get("maximum", high), high)
+            patched += 1
+    return patched
+
+
+def _allow_zero_client_ids(raw: dict[str, Any]) -> None:
+    """SPEC PROBLEM 2: ClientID / ClientTransactionID ``minimum: 1`` in requests and replies.
+
+    - Replies: ``AlpacaResponse.ClientTransactionID`` has ``minimum: 1``, yet its own description says
+      "Zero indicates that a valid value was not supplied", and Alpaca Reference §2.7 requires echoing
+      0 when the client sent none. A conforming reply to a request without an ID violates the schema.
+    - Requests: the Device API says 1..4294967295 ("zero is reserved, clients should not use it"),
+      the Management API says 0..4294967295 for the very same parameters, and the Reference (§2.6)
+      does not require servers to reject 0. The server follows the wider range (protocol-rules §15.3),
+      so 0 is treated as valid data here rather than as data the server must refuse.
+    """
+    components = raw["components"]
+    components["schemas"]["AlpacaResponse"]["properties"]["ClientTransactionID"]["minimum"] = 0
+    for name in ("ClientIDQuery", "ClientTransactionIDQuery"):
+        components["parameters"][name]["schema"]["minimum"] = 0
+    for prop in ("ClientID", "ClientTransactionID"):
+        components["schemas"]["AlpacaRequest"]["properties"][prop]["minimum"] = 0
+
+
+def _value_may_be_null_on_error(raw: dict[str, Any]) -> int:
+    """SPEC PROBLEM 3: every ``...Response`` types ``Value`` as non-null, errors included.
+
+    ASCOM errors travel as HTTP 200 with ErrorNumber != 0; the Reference (§6.1) warns that Value
+    "could be null" then, and ConformU's strict mode requires the key to be present. The schema has
+    no way to say "Value is meaningful only on success", so a correct error reply (``"Value": null``)
+    fails it. Null is allowed here; :func:`alpaca_checks` requires a non-null Value on success.
+    """
+    patched = 0
+    for response in raw["components"]["responses"].values():
+        for media in response.get("content", {}).values():
+            for part in media.get("schema", {}).get("allOf", []):
+                value = part.get("properties", {}).get("Value")
+                if value is not None:
+                    part["properties"]["Value"] = {"anyOf": [value, {"type": "null"}]}
+                    patched += 1
+    return patched
+
+
+def _device_state_values_any_of(raw: dict[str, Any]) -> None:
+    """SPEC PROBLEM 4: DeviceState item ``Value`` is a ``oneOf`` with two string branches.
+
+    The branches are "type: string" and "type: string, format: date-time, pattern ...Z". ``oneOf``
+    requires exactly one match, so every ISO 8601 date (UTCDate, TimeStamp: the values the
+    description says must be ISO strings) matches both and is rejected. ``anyOf`` is what is meant.
+    """
+    state = raw["components"]["responses"]["DeviceStateResponse"]["content"]["application/json"]["schema"]
+    item_value = state["allOf"][1]["properties"]["Value"]["items"]["properties"]["Value"]
+    item_value["anyOf"] = item_value.pop("oneOf")
+
+
+def _action_parameters_optional(raw: dict[str, Any]) -> None:
+    """DELIBERATE SERVER DEVIATION (not a spec error): ``Action`` without ``Parameters``.
+
+    The spec makes ``Parameters`` required, but alpyca, the ASCOM Initiative's own Python client,
+    omits the field when an action has no parameters; the server treats it as "" (members.py) so
+    that client works. Liberal in what it accepts (Reference §1.7), so the field is optional here.
+    """
+    body = raw["paths"]["/{device_type}/{device_number}/action"]["put"]["requestBody"]
+    schema = body["content"]["application/x-www-form-urlencoded"]["schema"]
+    for part in schema["allOf"]:
+        if "required" in part:
+            part["required"] = [name for name in part["required"] if name != "Parameters"]
+
+
+def _bodies_with_required_fields_are_required(raw: dict[str, Any]) -> int:
+    """SPEC PROBLEM 5: no PUT ``requestBody`` is marked ``required: true``.
+
+    OpenAPI's ``requestBody.required`` defaults to false, so by the letter of the file
+    ``PUT /telescope/0/slewtocoordinatesasync`` with no body at all is a valid request, although the
+    body schema requires RightAscension and Declination; a server can only answer it 400. Bodies
+    whose schema has required properties are marked required.
+    """
+    patched = 0
+    bodies = raw["components"].get("requestBodies", {})
+    for operations in raw["paths"].values():
+        put = operations.get("put")
+        if put is None or "requestBody" not in put:
+            continue
+        body = put["requestBody"]
+        if "$ref" in body:
+            body = bodies[body["$ref"].rsplit("/", 1)[-1]]
+        schema = body["content"]["application/x-www-form-urlencoded"]["schema"]
+        parts = schema.get("allOf", [schema])
+        if any(part.get("required") for part in parts):
+            if "$ref" in put["requestBody"]:
+                put["requestBody"] = {**body, "required": True}
+            else:
+                body["required"] = True
+            patched += 1
+    return patched
+
+
+def device_spec() -> dict[str, Any]:
+    raw = yaml.safe_load(DEVICE_SPEC.read_text(encoding="utf-8"))
+    _action_parameters_optional(raw)
+    _bodies_with_required_fields_are_required(raw)
+    _allow_zero_client_ids(raw)
+    _bound_integer_formats(raw)
+    _device_state_values_any_of(raw)  # before Value is wrapped for errors
+    _value_may_be_null_on_error(raw)
+    return raw
+
+
+def _management_400_for_bad_parameters(raw: dict[str, Any]) -> None:
+    """SPEC PROBLEM 6: description and configureddevices document no 400.
+
+    All three management GETs take the same optional ClientID / ClientTransactionID, but only
+    apiversions documents "400: Method or parameter value error"; the other two list 200, 403
+    and 500, so a malformed ``ClientTransactionID=abc`` has no documented answer there. The
+    server answers 400 text/plain on all three, as apiversions and the whole Device API specify.
+    """
+    bad_request = raw["paths"]["/management/apiversions"]["get"]["responses"]["400"]
+    for path in ("/management/v1/description", "/management/v1/configureddevices"):
+        raw["paths"][path]["get"]["responses"].setdefault("400", bad_request)
+
+
+def management_spec() -> dict[str, Any]:
+    raw = yaml.safe_load(MANAGEMENT_SPEC.read_text(encoding="utf-8"))
+    _bound_integer_formats(raw)
+    _management_400_for_bad_parameters(raw)
+    return raw
+
+
+def load_device_schema() -> Any:
+    return schemathesis.openapi.from_dict(device_spec()).include(path_regex=DEVICE_PATHS)
+
+
+def load_management_schema() -> Any:
+    return schemathesis.openapi.from_dict(management_spec())
+
+
+# ================================================================================================
+# Where a case goes: telescope 0, or deliberately a device this server does not have
+# ================================================================================================
+
+OTHER_TYPES = ("camera", "covercalibrator", "dome", "filterwheel", "focuser", "observingconditions", "rotator",
+               "safetymonitor", "switch")
+
+
+def pick_route(case: Case) -> str:
+    """Most cases go to telescope 0, about one in five to a device number or type this server lacks.
+
+    Derived from the generated path parameters (not drawn separately), because schemathesis cannot
+    combine extra ``given`` strategies with the schema's own examples; the choice is still
+    deterministic for a given case, so a failure replays exactly.
+    """
+    digest = zlib.crc32(repr(sorted(case.path_parameters.items())).encode()) % 10
+    return {0: "other-number", 1: "other-type"}.get(digest, "telescope0")
+
+
+def route_case(case: Case, route: str) -> str:
+    """Point a case at telescope 0 (or at an absent device) unless its path is the generated mistake.
+
+    Returns what the request is now: "telescope0", "absent-device" (valid per the schema, but not
+    on this server: the spec's documented 400), or "negative-path" (left as generated: invalid).
+    """
+    meta = case.meta
+    if meta is not None and meta.is_negative_at(ParameterLocation.PATH):
+        return "negative-path"
+    params = case.path_parameters
+    has_type = "device_type" in params
+    if route == "telescope0" or (route == "other-type" and not has_type):
+        params["device_number"] = 0
+        if has_type:
+            params["device_type"] = "telescope"
+        return "telescope0"
+    if route == "other-number":
+        number = params.get("device_number")
+        params["device_number"] = number if isinstance(number, int) and number > 0 else 1
+        if has_type:
+            params["device_type"] = "telescope"
+    else:
+        kind = params.get("device_type")
+        params["device_type"] = kind if kind in OTHER_TYPES else "camera"
+        params["device_number"] = 0
+    return "absent-device"
+
+
+# ================================================================================================
+# Checks: the spec's (through schemathesis) plus the Alpaca rules the spec cannot express
+# ================================================================================================
+
+
+class AlpacaViolation(AssertionError):
+    """A reply that breaks an Alpaca rule the OpenAPI file cannot express."""
+
+
+def _sent_field(case: Case, name: str) -> object:
+    container = case.query if case.method.upper() == "GET" else case.body
+    if isinstance(container, dict):
+        return container.get(name)
+    return None
+
+
+def alpaca_checks(case: Case, response: Any, kind: str) -> None:
+    """Envelope rules (R1) and status rules (Reference §2.5): raise AlpacaViolation when broken."""
+    status = response.status_code
+    content_type = response.headers.get("content-type", [""])
+    content_type = content_type[0] if isinstance(content_type, list) else content_type
+    where = f"{case.method.upper()} {case.formatted_path}"
+    if case.method.upper() not in ("GET", "PUT"):
+        # Verbs the spec does not define (schemathesis tries them): refused, or OPTIONS answered for CORS.
+        if not (status in (400, 405) or (case.method.upper() == "OPTIONS" and status == 200)):
+            raise AlpacaViolation(f"{where}: an undefined verb must be refused (400/405), got {status}")
+        return
+    setup_page = case.path.startswith("/setup")
+    if kind == "absent-device":
+        wanted = 403 if setup_page else 400  # Management API: 403; Device API: 400 (Reference §2.5.2)
+        if status != wanted:
+            raise AlpacaViolation(f"{where}: a device this server does not have must answer {wanted}, got {status}")
+    if status != 200:
+        if not content_type.startswith("text/"):
+            raise AlpacaViolation(f"{where}: HTTP {status} must carry a text message, got {content_type!r}")
+        return
+    if setup_page:
+        if not content_type.startswith("text/html"):
+            raise AlpacaViolation(f"{where}: a setup page must be text/html, got {content_type!r}")
+        return
+    if not content_type.startswith("application/json"):
+        raise AlpacaViolation(f"{where}: 200 without application/json ({content_type!r})")
+    try:
+        body = json.loads(response.content)
+    except ValueError:
+        raise AlpacaViolation(f"{where}: 200 with a body that is not JSON: {response.content[:200]!r}") from None
+    number, message = body.get("ErrorNumber"), body.get("ErrorMessage")
+    if (number == 0) != (message == ""):
+        raise AlpacaViolation(f"{where}: ErrorNumber {number} with ErrorMessage {message!r}")
+    if case.path.startswith("/management"):
+        number, message = body.get("ErrorNumber", 0), body.get("ErrorMessage", "")  # optional extras there
+        if "Value" not in body or body["Value"] is None:
+            raise AlpacaViolation(f"{where}: a management reply needs a Value")
+    if number == 0 and "Value" in body and body["Value"] is None:
+        raise AlpacaViolation(f"{where}: success with a null Value")
+    sent = _sent_field(case, "ClientTransactionID")
+    if isinstance(sent, int) and not isinstance(sent, bool) and 0 <= sent <= UINT32_MAX:
+        if body.get("ClientTransactionID") != sent:
+            raise AlpacaViolation(f"{where}: sent ClientTransactionID {sent}, echoed {body.get('ClientTransactionID')}")
+
+
+#: Why a schemathesis finding is not a server fault here (counted, never silently dropped).
+RANGE_AS_ASCOM_ERROR = ("out-of-range value refused the Alpaca way: HTTP 200 with ErrorNumber 0x401 "
+                        "(or 0x400 for a member the mount lacks), Reference §2.8; the schema's min/max are "
+                        "ASCOM value ranges, not HTTP well-formedness")
+EXTRA_PARAMETERS_TOLERATED = ("unknown extra parameters accepted: Alpaca devices must not fail on unrecognised "
+                              "parameters (Reference §1.7 robustness principle, clients.md R2)")
+
+
+def accepted_deviation(failure: BaseException, response: Any) -> str | None:
+    """The documented reason a failure is the protocol's rule rather than a bug, or None."""
+    if not isinstance(failure, AcceptedNegativeData):
+        return None
+    text = str(failure)
+    invalid = [line for line in text.splitlines() if "Invalid component" in line or line.lstrip().startswith("- ")]
+    if invalid and all("unexpected properties" in line or line.rstrip().endswith(":") for line in invalid):
+        return EXTRA_PARAMETERS_TOLERATED
+    if response.status_code == 200:
+        try:
+            number = json.loads(response.content).get("ErrorNumber")
+        except ValueError:
+            return None
+        if number in (0x400, 0x401):
+            return RANGE_AS_ASCOM_ERROR
+    return None
+
+
+SCHEMA_CHECKS = [not_a_server_error, status_code_conformance, content_type_conformance,
+                 response_schema_conformance, negative_data_rejection, positive_data_acceptance]
+
+
+@dataclass
+class Stats:
+    """What a run did, for the CI assertion and the long-run summary."""
+
+    requests: int = 0
+    statuses: Counter[int] = field(default_factory=Counter)
+    ascom_errors: Counter[int] = field(default_factory=Counter)
+    kinds: Counter[str] = field(default_factory=Counter)
+    operations: Counter[str] = field(default_factory=Counter)
+    problems: Counter[str] = field(default_factory=Counter)
+    deviations: Counter[str] = field(default_factory=Counter)
+    examples: dict[str, str] = field(default_factory=dict)
+    max_latency_s: float = 0.0
+    lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    def record_problem(self, key: str, detail: str) -> None:
+        with self.lock:
+            self.problems[key] += 1
+            self.examples.setdefault(key, detail)
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "requests": self.requests,
+            "statuses": dict(sorted(self.statuses.items())),
+            "ascom_errors": {f"0x{k:X}": v for k, v in sorted(self.ascom_errors.items())},
+            "routes": dict(self.kinds),
+            "operations": len(self.operations),
+            "max_latency_s": round(self.max_latency_s, 3),
+            "accepted_deviations": dict(self.deviations),
+            "problems": dict(self.problems),
+            "problem_examples": self.examples,
+        }
+
+
+def describe_case(case: Case) -> str:
+    body = case.body if not isinstance(case.body, type(schemathesis.core.NOT_SET)) else None
+    return (f"{case.method.upper()} {case.formatted_path} query={case.query!r} body={body!r} "
+            f"mode={case.meta.generation.mode.value if case.meta else '?'}")
+
+
+def exercise(case: Case, base_url: str, session: requests.Session, stats: Stats) -> list[str]:
+    """Send one case, run every check, and return the problems found (empty: all good)."""
+    kind = route_case(case, pick_route(case))
+    started = time.monotonic()
+    try:
+        response = case.call(base_url=base_url, session=session, timeout=REQUEST_TIMEOUT_S)
+    except requests.RequestException as exc:
+        problem = f"no reply: {type(exc).__name__}: {exc}"
+        stats.record_problem("no reply", f"{describe_case(case)}: {problem}")
+        return [problem]
+    elapsed = time.monotonic() - started
+    with stats.lock:
+        stats.requests += 1
+        stats.statuses[response.status_code] += 1
+        stats.kinds[kind] += 1
+        stats.operations[f"{case.method.upper()} {case.path}"] += 1
+        stats.max_latency_s = max(stats.max_latency_s, elapsed)
+        if response.status_code == 200:
+            try:
+                stats.ascom_errors[int(json.loads(response.content).get("ErrorNumber", -1))] += 1
+            except (ValueError, AttributeError):
+                pass
+    problems = []
+    excluded = [positive_data_acceptance] if kind == "absent-device" else []
+    try:
+        case.validate_response(response, checks=[c for c in SCHEMA_CHECKS if c not in excluded])
+    except (FailureGroup, Failure) as exc:
+        failures = list(exc.exceptions) if isinstance(exc, FailureGroup) else [exc]
+        for failure in failures:
+            reason = accepted_deviation(failure, response)
+            title = f"{failure.code} {failure.title}" if hasattr(failure, "code") else type(failure).__name__
+            key = f"{case.method.upper()} {case.path}: {title}"
+            if reason is not None:
+                with stats.lock:
+                    stats.deviations[reason] += 1
+                continue
+            detail = (f"{describe_case(case)} -> {response.status_code} {response.content[:300]!r}\n"
+                      f"{str(failure).strip()[:1500]}")
+            stats.record_problem(f"schema: {key}", detail)
+            problems.append(f"schema: {key}\n{detail}")
+    try:
+        alpaca_checks(case, response, kind)
+    except AlpacaViolation as exc:
+        key = f"alpaca: {case.method.upper()} {case.path}: {str(exc).split(':', 1)[-1].strip()[:80]}"
+        stats.record_problem(key, f"{describe_case(case)} -> {response.status_code} {response.content[:300]!r}")
+        problems.append(str(exc))
+    return problems
+
+
+# ================================================================================================
+# The live server and its keeper client
+# ================================================================================================
+
+
+def fuzz_settings() -> Settings:
+    return make_settings(emulator=EmulatorSettings(speed=FUZZ_SPEED, baud=0))
+
+
+class Keeper:
+    """The harness's own client: keeps the telescope connected and the run bounded and meaningful.
+
+    Generated requests may park the mount, set a one-hour SlewSettleTime or leave an axis moving;
+    that is exercised, then undone here so later cases still do real work in bounded time.
+    """
+
+    def __init__(self, base_url: str) -> None:
+        self.url = f"{base_url}/api/v1/telescope/0/"
+        self.session = requests.Session()
+        self.parks = 0
+
+    def _put(self, member: str, **fields: object) -> dict[str, Any]:
+        data = {"ClientID": str(KEEPER_CLIENT_ID), **{k: str(v) for k, v in fields.items()}}
+        response = self.session.put(self.url + member, data=data, timeout=REQUEST_TIMEOUT_S)
+        response.raise_for_status()
+        return dict(response.json())
+
+    def get(self, member: str, **params: object) -> Any:
+        query = {"ClientID": str(KEEPER_CLIENT_ID), **{k: str(v) for k, v in params.items()}}
+        response = self.session.get(self.url + member, params=query, timeout=REQUEST_TIMEOUT_S)
+        response.raise_for_status()
+        body = response.json()
+        if body["ErrorNumber"]:
+            raise AssertionError(f"GET {member}: 0x{body['ErrorNumber']:X} {body['ErrorMessage']}")
+        return body["Value"]
+
+    def connect(self) -> None:
+        reply = self._put("connected", Connected="true")
+        assert reply["ErrorNumber"] == 0, reply
+
+    def after(self, case: Case) -> None:
+        path = case.path.rsplit("/", 1)[-1]
+        if case.method.upper() != "PUT":
+            return
+        if path in ("connected", "disconnect", "connect"):
+            self.connect()  # cheap and idempotent: the keeper's own connection is never at risk
+        elif path == "slewsettletime":
+            self._put("slewsettletime", SlewSettleTime=0)
+        elif path == "park":
+            self.parks += 1
+            if self.parks % 4:  # most of the time unpark, so motion members keep doing real work
+                self._put("unpark")
+
+    def check_state(self) -> dict[str, Any]:
+        """Mid-run invariant: DeviceState answers, with every name, the right types and sane ranges."""
+        state = {item["Name"]: item["Value"] for item in self.get("devicestate")}
+        assert STATE_NAMES <= state.keys() <= STATE_NAMES | {"TimeStamp"}, state
+        for name in ("AtHome", "AtPark", "IsPulseGuiding", "Slewing", "Tracking"):
+            assert isinstance(state[name], bool), (name, state[name])
+        for name in ("Altitude", "Azimuth", "Declination", "RightAscension", "SiderealTime"):
+            assert isinstance(state[name], float), (name, state[name])
+        assert 0.0 <= state["RightAscension"] < 24.0 and -90.0 <= state["Declination"] <= 90.0, state
+        assert 0.0 <= state["SiderealTime"] < 24.0 and -90.0 <= state["Altitude"] <= 90.0, state
+        assert 0.0 <= state["Azimuth"] <= 360.0 and state["SideOfPier"] in (-1, 0, 1), state
+        assert not (state["AtPark"] and state["Slewing"] and not self.get("slewing")), state
+        return state
+
+    def settle(self, timeout: float = 60.0) -> dict[str, Any]:
+        """Stop everything and wait for a coherent, idle mount; return its DeviceState."""
+        self.connect()
+        if self.get("atpark"):
+            self._put("unpark")
+        self._put("slewsettletime", SlewSettleTime=0)
+        reply = self._put("abortslew")
+        assert reply["ErrorNumber"] == 0, reply
+        deadline = time.monotonic() + timeout
+        while self.get("slewing") or self.get("ispulseguiding"):
+            assert time.monotonic() < deadline, "the mount did not come to rest after AbortSlew"
+            time.sleep(0.05)
+        return {item["Name"]: item["Value"] for item in self.get("devicestate")}
+
+
+def check_consistent(keeper: Keeper, base_url: str) -> dict[str, Any]:
+    """After fuzzing: the server still serves, and the mount's state hangs together."""
+    keeper.settle()
+    state = keeper.check_state()
+    assert state["Slewing"] is False and state["IsPulseGuiding"] is False and state["AtPark"] is False
+    for name in ("AtHome", "AtPark", "Slewing", "Tracking"):
+        assert keeper.get(name.lower()) == state[name], name
+    assert keeper.get("connected") is True
+    # Motion still works end to end: a short GOTO starts, ends, and lands where it was sent.
+    lst = keeper.get("siderealtime")
+    latitude = keeper.get("sitelatitude")
+    dec = max(-80.0, min(80.0, latitude - 40.0 if latitude > 0 else latitude + 40.0))
+    reply = keeper._put("tracking", Tracking="true")
+    assert reply["ErrorNumber"] == 0, reply
+    reply = keeper._put("slewtocoordinatesasync", RightAscension=lst % 24.0, Declination=dec)
+    assert reply["ErrorNumber"] in (0, 0x401), reply  # 0x401: below a fuzzed horizon limit is a fair refusal
+    state = keeper.settle()
+    for path in ("/management/apiversions", "/management/v1/description", "/management/v1/configureddevices"):
+        assert requests.get(base_url + path, timeout=10).status_code == 200, path
+    return state
+
+
+STATE_NAMES = frozenset({"Altitude", "AtHome", "AtPark", "Azimuth", "Declination", "IsPulseGuiding",
+                         "RightAscension", "SideOfPier", "SiderealTime", "Slewing", "Tracking", "UTCDate"})
+
+
+@dataclass
+class LiveServer:
+    server: AlpacaZwoServer
+    base_url: str
+    keeper: Keeper
+
+
+def start_live_server(config_path: Path) -> LiveServer:
+    from alpaca_zwo.setup import setup_routes
+
+    store = SettingsStore(fuzz_settings(), config_path)
+    server = AlpacaZwoServer(store, extra_routes_factory=setup_routes)
+    server.start()
+    base_url = f"http://127.0.0.1:{server.port}"
+    keeper = Keeper(base_url)
+    keeper.connect()
+    return LiveServer(server, base_url, keeper)
