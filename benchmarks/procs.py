@@ -8,6 +8,7 @@ server). Only processes started here are ever stopped, by their own pid.
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import json
 import os
@@ -26,7 +27,16 @@ import psutil
 
 REPO = Path(__file__).resolve().parent.parent
 
-__all__ = ["Emulator", "Proc", "emulator_log_times", "start_alpaca_zwo", "start_emulator", "start_peer"]
+__all__ = [
+    "Emulator",
+    "Proc",
+    "cycle_aligned",
+    "emulator_log_exchanges",
+    "emulator_log_times",
+    "start_alpaca_zwo",
+    "start_emulator",
+    "start_peer",
+]
 
 
 @dataclass
@@ -192,6 +202,49 @@ def emulator_log_times(path: Path, commands: set[str]) -> list[tuple[float, str]
                 stamp = datetime.strptime(match.group(1), "%Y-%m-%d %H:%M:%S").timestamp()
                 found.append((stamp + int(match.group(2)) / 1000.0 + 0.0005, match.group(3)))
     return found
+
+
+_EXCHANGE = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d),(\d{3}) DEBUG alpaca_zwo\.emulator\.server: "
+                       r"line \d+ :(.*)# -> (None|'.*'|\".*\")$")
+
+
+def emulator_log_exchanges(path: Path, start: float, end: float) -> list[tuple[float, str, int, int]]:
+    """(time, command body, request bytes, reply bytes) of every logged exchange in [start, end)."""
+    found = []
+    with path.open(encoding="latin-1") as lines:
+        for line in lines:
+            match = _EXCHANGE.match(line.rstrip("\n"))
+            if not match:
+                continue
+            stamp = datetime.strptime(match.group(1), "%Y-%m-%d %H:%M:%S").timestamp() + int(match.group(2)) / 1000.0
+            if start <= stamp < end:
+                reply = match.group(4)
+                size = 0 if reply == "None" else len(ast.literal_eval(reply))
+                found.append((stamp, match.group(3), len(match.group(3)) + 2, size))
+    return found
+
+
+def cycle_aligned(path: Path, start: float, end: float, marker: str = "GMEQ") -> dict[str, float] | None:
+    """Line use over whole poll cycles: from the first poll in the window to the last one.
+
+    A window cut at arbitrary times holds a varying number of 0.75 s poll cycles (+-1 cycle is
+    +-4% of a 20 s window), which would swamp a 5% flatness check; counting from one cycle start
+    to another removes that quantisation.
+    """
+    exchanges = emulator_log_exchanges(path, start, end)
+    polls = [t for t, body, _, _ in exchanges if body == marker]
+    if len(polls) < 3:
+        return None
+    first, last = polls[0], polls[-1]
+    inside = [e for e in exchanges if first <= e[0] < last]
+    span = last - first
+    total = sum(e[2] + e[3] for e in inside)
+    return {
+        "bytes_per_s": round(total / span, 1),
+        "exchanges_per_s": round(len(inside) / span, 2),
+        "poll_period_s": round(span / (len(polls) - 1), 3),
+        "cycles": len(polls) - 1,
+    }
 
 
 def free_cpus() -> tuple[int, ...]:

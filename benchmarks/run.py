@@ -27,7 +27,16 @@ from typing import Any
 
 from .client import AlpacaClient, ReplyError
 from .loads import ClientSpec, WorkerPool
-from .procs import Emulator, Proc, emulator_log_times, free_cpus, start_alpaca_zwo, start_emulator, start_peer
+from .procs import (
+    Emulator,
+    Proc,
+    cycle_aligned,
+    emulator_log_times,
+    free_cpus,
+    start_alpaca_zwo,
+    start_emulator,
+    start_peer,
+)
 from .report import render
 from .stats import percentile, slope_per_minute, summarise
 
@@ -69,6 +78,10 @@ class Plan:
                         "put-under-50"), 100, args.soak_minutes * 60.0, 3.0)
         if args.tests:
             plan = replace(plan, http_tests=tuple(args.tests.split(",")))
+        if args.phases:
+            pairs = (item.partition(":") for item in args.phases.split(","))
+            phases = tuple((state, int(count)) for state, _, count in pairs)
+            plan = replace(plan, serial_phases=phases)
         return replace(plan, server_threads=args.server_threads, peer=not args.no_peer, server_patch=args.server_patch)
 
 
@@ -239,10 +252,18 @@ class Bench:
         total = (after["bytes_in"] - before["bytes_in"]) + (after["bytes_out"] - before["bytes_out"])
         labels = {label: summarise(entry, window) for label, entry in result["labels"].items()}
         age = labels.get("state-age", {})
+        aligned = cycle_aligned(self.emulator.proc.stderr, before["time"], after["time"]) or {}
         row = {
             "state": state,
             "clients": clients,
+            "window": (before["time"], after["time"]),
             "window_s": round(window, 2),
+            "aligned_bytes_per_s": aligned.get("bytes_per_s"),
+            "aligned_line_pct": (round(100.0 * aligned["bytes_per_s"] / (self.plan.baud / 10.0), 2)
+                                 if aligned else None),
+            "aligned_exchanges_per_s": aligned.get("exchanges_per_s"),
+            "poll_period_s": aligned.get("poll_period_s"),
+            "poll_cycles": aligned.get("cycles"),
             "bytes_to_mount_per_s": round((after["bytes_in"] - before["bytes_in"]) / window, 1),
             "bytes_from_mount_per_s": round((after["bytes_out"] - before["bytes_out"]) / window, 1),
             "bytes_per_s": round(total / window, 1),
@@ -262,7 +283,8 @@ class Bench:
             "slewer_errors": slewer.errors if slewer else None,
         }
         self.log(f"serial {state:8s} {clients:3d} clients: {row['bytes_per_s']:6.1f} B/s ({row['line_pct']:.1f}% "
-                 f"of line), {row['exchanges_per_s']:.2f} exch/s, age max {row['age_max_s']} s, "
+                 f"of line; whole cycles {row['aligned_bytes_per_s']} B/s, period {row['poll_period_s']} s) "
+                 f"{row['exchanges_per_s']:.2f} exch/s, age max {row['age_max_s']} s, "
                  f"{row['http_get_per_s']} GET/s, errors {row['errors']}, rss {row['rss_mb']} MB")
         return row
 
@@ -346,7 +368,8 @@ class Bench:
     def abort_test(self, target: Target, kind: str) -> dict[str, Any]:
         """``n`` stops, each during a motion started 0.3-0.9 s earlier, while 50 NINA pollers run."""
         assert self.pool is not None and self.emulator is not None
-        n = self.plan.abort_n
+        # The peer has no mount line, so its number is HTTP only: fewer rounds say enough.
+        n = self.plan.abort_n if target is self.ours else max(5, self.plan.abort_n // 3)
         budget = n * 2.5 + 10.0
         stop_file = self.run_dir / f"stop-{target.proc.name}-{kind}"
         running = self.pool.start("127.0.0.1", target.proc.port, [ClientSpec("nina", 50)], warmup=self.plan.warmup_s,
@@ -548,6 +571,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--soak-minutes", type=float, default=10.0, help="memory soak length in full mode")
     parser.add_argument("--only", default="", help="comma list of parts: serial,http,abort,soak (default all)")
     parser.add_argument("--tests", default="", help="comma list of HTTP tests (default: the mode's list)")
+    parser.add_argument("--phases", default="", metavar="STATE:N,...",
+                        help="serial phases to run, e.g. rest:1,rest:100 (states: rest, guiding, slewing)")
     parser.add_argument("--server-threads", type=int, help="override alpaca-zwo's waitress thread count")
     parser.add_argument("--server-patch", default="", metavar="P[,P]",
                         help="run alpaca-zwo with candidate changes applied: urgent-stop, fixed-rate-poll, "

@@ -21,6 +21,7 @@ import contextlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import timedelta
 
 from tests.conformance.ascom import (
     AlpacaTelescope,
@@ -680,8 +681,6 @@ class TelescopeTester(DeviceTesterBase):
             utc_date = self.time_func("UTCDate Read", lambda: t.UTCDate, FAST)
             self.log_ok("UTCDate Read", f"{utc_date:%d-%b-%Y %H:%M:%S.%f}")
             try:
-                from datetime import timedelta
-
                 ahead = utc_date + timedelta(hours=1)
                 self.time_method("UTCDate Write", lambda: setattr(t, "UTCDate", ahead), STANDARD)
                 self.log_ok("UTCDate Write", f"New UTCDate written successfully: {ahead}")
@@ -2132,12 +2131,14 @@ class TelescopeTester(DeviceTesterBase):
             verb = "sync" if test.startswith("Sync") else "slew"
             call = {"SlewToTarget": t.SlewToTarget, "SlewToTargetAsync": t.SlewToTargetAsync,
                     "SyncToTarget": t.SyncToTarget}[test]
-            good_ra = self.ra_from_sidereal_time(-3.0 if verb == "sync" else -2.0)
-            cases = (("TargetRightAscension", bad1, "TargetDeclination", 0.0, "RA", to_hms(bad1), "TargetRA"),
-                     ("TargetDeclination", bad2, "TargetRightAscension", good_ra, "Dec", to_dms(bad2),
+            offset = -3.0 if verb == "sync" else -2.0
+            cases = (("TargetRightAscension", bad1, "TargetDeclination", None, "RA", to_hms(bad1), "TargetRA"),
+                     ("TargetDeclination", bad2, "TargetRightAscension", offset, "Dec", to_dms(bad2),
                       "TargetDeclination"))
-            for bad_member, bad_value, good_member, good_value, what, shown, setter_name in cases:
+            for bad_member, bad_value, good_member, ra_offset, what, shown, setter_name in cases:
                 try:
+                    # The good RA is taken from SiderealTime at the start of its case, as ConformU does.
+                    good_value = 0.0 if ra_offset is None else self.ra_from_sidereal_time(ra_offset)
                     setattr(t, bad_member, bad_value)
                     with contextlib.suppress(Exception):
                         setattr(t, good_member, good_value)

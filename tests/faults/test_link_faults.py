@@ -260,7 +260,7 @@ def test_usb_unplugged_mid_pulse(rig_factory: RigFactory, pulse_ms: int) -> None
     call = main.put("pulseguide", Direction=2, Duration=pulse_ms)
     sent = time.monotonic()
     verdict.check(call.ok, f"the pulse was refused: {call.describe()}")
-    unplug_at = sent + min(pulse_ms, 3000) / 1000.0 - 0.05
+    unplug_at = sent + min(pulse_ms, 3000) / 1000.0 - 0.25  # the link has noticed by the time a part ends
     guiding: list[tuple[float, bool | None]] = []
     while time.monotonic() < sent + pulse_ms / 1000.0 + 2.0:  # PHD2: IsPulseGuiding every 50 ms
         if time.monotonic() >= unplug_at and rig.link.status.reconnects == reconnects and unplug_at > 0:
@@ -307,10 +307,10 @@ def test_garbage_bytes(rig_factory: RigFactory) -> None:
         deadline = time.monotonic() + 20
         while rig.faults.pending()["garble"] > 0 and time.monotonic() < deadline:
             calls.extend(_command_loop(commander, time.monotonic() + 0.6, period=0.3))
-        rig.faults.garble_replies(3, replace=True)
+        rig.faults.garble_replies(2, replace=True)
         while rig.faults.pending()["garble"] > 0 and time.monotonic() < deadline:
             calls.extend(_command_loop(commander, time.monotonic() + 0.6, period=0.3))
-        verdict.check(rig.faults.garbled >= 7, f"only {rig.faults.garbled} replies were garbled")
+        verdict.check(rig.faults.garbled >= 6, f"only {rig.faults.garbled} replies were garbled")
         last_garble_truth = rig.truth()
         last_garble = time.monotonic()
         fresh = _fresh_after(monitor, last_garble_truth, last_garble, 10)
@@ -360,7 +360,7 @@ def test_dropped_reply(rig_factory: RigFactory) -> None:
         fresh = _fresh_after(monitor, fault_truth, fault_at, 15)
         poll_recovery = fresh.at - fault_at
 
-        ra, dec = _altaz_target(rig, main, 50.0, 200.0)
+        ra, dec = sky.ra_from_hour_angle(main.value("siderealtime"), -4.0), 60.0  # 30° on each axis
         _arm_on(rig, "MS", "drop_replies")
         goto = main.put("slewtocoordinatesasync", RightAscension=ra, Declination=dec)
         verdict.check(goto.ok or is_clear_driver_error(goto), f"unclear GOTO failure: {goto.describe()}")

@@ -72,7 +72,7 @@ def test_moveaxis_watchdog(rig_factory: RigFactory, caplog: pytest.LogCaptureFix
 def test_moveaxis_stops_at_the_horizon(rig_factory: RigFactory, caplog: pytest.LogCaptureFixture) -> None:
     """A manual move that would take the telescope below the altitude limit is stopped by the server."""
     caplog.set_level(logging.INFO, logger="alpaca_zwo")
-    floor = 45.0
+    floor = 48.0
     rig = rig_factory(limits=LimitSettings(min_altitude_deg=floor))
     verdict = Verdict("manual move at the horizon limit")
     main = rig.clients[0]

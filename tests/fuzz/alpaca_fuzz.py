@@ -13,6 +13,7 @@ problems is in one place and the server is held to everything else.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import threading
@@ -196,10 +197,23 @@ def _bodies_with_required_fields_are_required(raw: dict[str, Any]) -> int:
     return patched
 
 
+def _right_ascension_below_24(raw: dict[str, Any]) -> None:
+    """SPEC PROBLEM 7: ``RightAscension`` has ``maximum: 23.9999999999``.
+
+    Right ascension is 0 <= RA < 24 hours (ASCOM; ConformU flags ``>= 24``). The decimal cut-off
+    makes a perfectly good 23.99999999995 "invalid" and would have a server refuse it; the range
+    meant is ``exclusiveMaximum: 24``.
+    """
+    schema = raw["components"]["schemas"]["RightAscension"]
+    del schema["maximum"]
+    schema["exclusiveMaximum"] = 24.0
+
+
 def device_spec() -> dict[str, Any]:
     raw = yaml.safe_load(DEVICE_SPEC.read_text(encoding="utf-8"))
     _action_parameters_optional(raw)
     _bodies_with_required_fields_are_required(raw)
+    _right_ascension_below_24(raw)
     _allow_zero_client_ids(raw)
     _bound_integer_formats(raw)
     _device_state_values_any_of(raw)  # before Value is wrapped for errors
@@ -338,9 +352,9 @@ def alpaca_checks(case: Case, response: Any, kind: str) -> None:
     if number == 0 and "Value" in body and body["Value"] is None:
         raise AlpacaViolation(f"{where}: success with a null Value")
     sent = _sent_field(case, "ClientTransactionID")
-    if isinstance(sent, int) and not isinstance(sent, bool) and 0 <= sent <= UINT32_MAX:
-        if body.get("ClientTransactionID") != sent:
-            raise AlpacaViolation(f"{where}: sent ClientTransactionID {sent}, echoed {body.get('ClientTransactionID')}")
+    valid_id = isinstance(sent, int) and not isinstance(sent, bool) and 0 <= sent <= UINT32_MAX
+    if valid_id and body.get("ClientTransactionID") != sent:
+        raise AlpacaViolation(f"{where}: sent ClientTransactionID {sent}, echoed {body.get('ClientTransactionID')}")
 
 
 #: Why a schemathesis finding is not a server fault here (counted, never silently dropped).
@@ -384,6 +398,7 @@ class Stats:
     operations: Counter[str] = field(default_factory=Counter)
     problems: Counter[str] = field(default_factory=Counter)
     deviations: Counter[str] = field(default_factory=Counter)
+    driver_errors: Counter[str] = field(default_factory=Counter)
     examples: dict[str, str] = field(default_factory=dict)
     max_latency_s: float = 0.0
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
@@ -402,6 +417,7 @@ class Stats:
             "operations": len(self.operations),
             "max_latency_s": round(self.max_latency_s, 3),
             "accepted_deviations": dict(self.deviations),
+            "driver_errors": dict(self.driver_errors.most_common()),
             "problems": dict(self.problems),
             "problem_examples": self.examples,
         }
@@ -431,10 +447,12 @@ def exercise(case: Case, base_url: str, session: requests.Session, stats: Stats)
         stats.operations[f"{case.method.upper()} {case.path}"] += 1
         stats.max_latency_s = max(stats.max_latency_s, elapsed)
         if response.status_code == 200:
-            try:
-                stats.ascom_errors[int(json.loads(response.content).get("ErrorNumber", -1))] += 1
-            except (ValueError, AttributeError):
-                pass
+            with contextlib.suppress(ValueError, AttributeError, TypeError):
+                body = json.loads(response.content)
+                number = int(body.get("ErrorNumber", -1))
+                stats.ascom_errors[number] += 1
+                if number >= 0x500:  # driver errors: worth reading even when nothing is "wrong"
+                    stats.driver_errors[f"{case.method.upper()} {case.path}: {body.get('ErrorMessage', '')[:90]}"] += 1
     problems = []
     excluded = [positive_data_acceptance] if kind == "absent-device" else []
     try:
@@ -468,7 +486,12 @@ def exercise(case: Case, base_url: str, session: requests.Session, stats: Stats)
 
 
 def fuzz_settings() -> Settings:
-    return make_settings(emulator=EmulatorSettings(speed=FUZZ_SPEED, baud=0))
+    settings = make_settings(emulator=EmulatorSettings(speed=FUZZ_SPEED, baud=0))
+    assert (settings.site.latitude, settings.site.longitude, settings.site.elevation) == SITE
+    return settings
+
+
+SITE = (51.4769, -0.0005, 46.0)
 
 
 class Keeper:
@@ -544,26 +567,53 @@ class Keeper:
         return {item["Name"]: item["Value"] for item in self.get("devicestate")}
 
 
-def check_consistent(keeper: Keeper, base_url: str) -> dict[str, Any]:
-    """After fuzzing: the server still serves, and the mount's state hangs together."""
+def _wait_idle(keeper: Keeper, timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while keeper.get("slewing"):
+        assert time.monotonic() < deadline, "a motion did not end"
+        time.sleep(0.02)
+
+
+def check_consistent(keeper: Keeper, base_url: str, site: tuple[float, float, float]) -> dict[str, Any]:
+    """After fuzzing: the server still serves, the state hangs together, and a real session still works.
+
+    The fuzzing left the site, clock and position wherever the last cases put them, so the session
+    first restores what a client would set on connect (site, UTC time), homes the mount, then
+    tracks and GOTOs to a target, checking Slewing, arrival and the read-back position.
+    """
     keeper.settle()
     state = keeper.check_state()
     assert state["Slewing"] is False and state["IsPulseGuiding"] is False and state["AtPark"] is False
     for name in ("AtHome", "AtPark", "Slewing", "Tracking"):
         assert keeper.get(name.lower()) == state[name], name
     assert keeper.get("connected") is True
-    # Motion still works end to end: a short GOTO starts, ends, and lands where it was sent.
-    lst = keeper.get("siderealtime")
-    latitude = keeper.get("sitelatitude")
-    dec = max(-80.0, min(80.0, latitude - 40.0 if latitude > 0 else latitude + 40.0))
+
+    for member, value in (("sitelatitude", site[0]), ("sitelongitude", site[1]), ("siteelevation", site[2])):
+        reply = keeper._put(member, **{KEEPER_NAMES[member]: value})
+        assert reply["ErrorNumber"] == 0 and keeper.get(member) == value, (member, reply)
+    now = time.strftime("%Y-%m-%dT%H:%M:%S.0000000Z", time.gmtime())
+    reply = keeper._put("utcdate", UTCDate=now)
+    assert reply["ErrorNumber"] == 0, reply
+    assert keeper._put("findhome")["ErrorNumber"] == 0
+    _wait_idle(keeper)
+    assert keeper.get("athome") is True and keeper.get("declination") == 90.0
     reply = keeper._put("tracking", Tracking="true")
     assert reply["ErrorNumber"] == 0, reply
-    reply = keeper._put("slewtocoordinatesasync", RightAscension=lst % 24.0, Declination=dec)
-    assert reply["ErrorNumber"] in (0, 0x401), reply  # 0x401: below a fuzzed horizon limit is a fair refusal
-    state = keeper.settle()
+    ra, dec = (keeper.get("siderealtime") + 2.0) % 24.0, 40.0  # HA -2 h: well above the horizon
+    reply = keeper._put("slewtocoordinatesasync", RightAscension=ra, Declination=dec)
+    assert reply["ErrorNumber"] == 0, reply
+    assert keeper.get("slewing") is True
+    _wait_idle(keeper)
+    here = keeper.check_state()
+    assert abs((here["RightAscension"] - ra + 12.0) % 24.0 - 12.0) < 5.0 / 3600.0, (here, ra)
+    assert abs(here["Declination"] - dec) < 5.0 / 3600.0, (here, dec)
+    assert here["Tracking"] is True and here["SideOfPier"] == 1 and here["AtHome"] is False
     for path in ("/management/apiversions", "/management/v1/description", "/management/v1/configureddevices"):
         assert requests.get(base_url + path, timeout=10).status_code == 200, path
-    return state
+    return here
+
+
+KEEPER_NAMES = {"sitelatitude": "SiteLatitude", "sitelongitude": "SiteLongitude", "siteelevation": "SiteElevation"}
 
 
 STATE_NAMES = frozenset({"Altitude", "AtHome", "AtPark", "Azimuth", "Declination", "IsPulseGuiding",
@@ -575,6 +625,11 @@ class LiveServer:
     server: AlpacaZwoServer
     base_url: str
     keeper: Keeper
+
+    @property
+    def site(self) -> tuple[float, float, float]:
+        """The site the server started with, restored by :func:`check_consistent`."""
+        return SITE
 
 
 def start_live_server(config_path: Path) -> LiveServer:
