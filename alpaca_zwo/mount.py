@@ -205,11 +205,13 @@ class Mount:
         poll_slow_s: float = 0.75,
         utc_offset: Callable[[], timedelta] | None = None,
         monotonic: Callable[[], float] = time.monotonic,
+        clock_rate: float = 1.0,
     ) -> None:
         self.link = link
         #: Mount time in seconds: pulse windows, motion and reading ages are measured on it. It is
         #: the host's monotonic clock for a real mount and the emulator's clock for a fast emulator.
         self.monotonic = monotonic
+        self._clock_rate = clock_rate  # mount seconds per real second (a fast emulator: its speed)
         self._site = site
         self.clock = clock
         self._utc_offset = utc_offset or _host_utc_offset
@@ -253,6 +255,29 @@ class Mount:
                     return None
                 self._state_cond.wait(remaining)
             return self._state
+
+    def position(self) -> tuple[float, float] | None:
+        """RA/Dec now: the estimate carried forward from the last reading by what the server knows
+        moved the mount (pulses, tracking drift), so a read between polls is not a poll interval old.
+
+        Only while that reading is recent and the link is up; otherwise the last reading as it was
+        (clients then see its true age in DeviceState's TimeStamp), never a guess presented as fresh.
+        """
+        state = self._state
+        if state.ra is None or state.dec is None:
+            return None
+        now = self.monotonic()
+        recent = state.position_time is not None and now - state.position_time <= 3 * self.poll_slow_s * self._speed()
+        if recent and self.link.status.connected and not state.moving_axes:
+            with self._estimator_lock:
+                predicted = self._estimator.predict(now)
+            if predicted is not None:
+                return predicted
+        return state.ra, state.dec
+
+    def _speed(self) -> float:
+        """How many mount seconds pass per real second (1 for a real mount; more for a fast emulator)."""
+        return max(1.0, self._clock_rate)
 
     def refresh(self) -> None:
         """Ask the poller for a new reading as soon as the line is free."""

@@ -98,15 +98,16 @@ class AlpacaZwoServer:
             url = self._device_url(index, device)
             clock: Callable[[], datetime] = utc_now
             monotonic: Callable[[], float] = time.monotonic
+            clock_rate = 1.0
             emulator = None
             if not url:
                 speed = self.overrides.emulator_speed or settings.emulator.speed
                 baud = settings.emulator.baud if self.overrides.emulator_baud is None else self.overrides.emulator_baud
                 emulator = EmbeddedEmulator(settings, speed, baud)
-                url, clock, monotonic = emulator.url, emulator.now, emulator.clock.seconds
+                url, clock, monotonic, clock_rate = emulator.url, emulator.now, emulator.clock.seconds, speed
             self.emulators.append(emulator)
             link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)
-            mount = Mount(link, self._site, clock=clock, monotonic=monotonic)
+            mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate)
             self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry, clock=clock))
 
         server = settings.server

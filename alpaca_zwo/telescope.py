@@ -377,28 +377,35 @@ class Telescope:
             raise DriverError("the mount has not reported its position yet", ERR_LINK)
         return state
 
+    def _position(self) -> tuple[float, float]:
+        """RA/Dec as of now (see Mount.position): what every coordinate property reports."""
+        self._state()
+        position = self.mount.position()
+        if position is None:
+            raise DriverError("the mount has not reported its position yet", ERR_LINK)
+        return position
+
     def utc_now(self) -> datetime:
         return self.clock() + self._utc_offset
 
     def _lst(self, now: datetime | None = None) -> float:
         return sky.local_sidereal_time(now or self.utc_now(), self.settings.site.longitude)
 
-    def _altaz(self, state: MountState) -> tuple[float, float]:
-        assert state.ra is not None and state.dec is not None
-        ha = sky.hour_angle(self._lst(), state.ra)
-        return sky.equatorial_to_horizontal(ha, state.dec, self.settings.site.latitude)
+    def _altaz(self, position: tuple[float, float]) -> tuple[float, float]:
+        ha = sky.hour_angle(self._lst(), position[0])
+        return sky.equatorial_to_horizontal(ha, position[1], self.settings.site.latitude)
 
     def right_ascension(self) -> float:
-        return float(self._state().ra)  # type: ignore[arg-type]
+        return self._position()[0]
 
     def declination(self) -> float:
-        return float(self._state().dec)  # type: ignore[arg-type]
+        return self._position()[1]
 
     def altitude(self) -> float:
-        return self._altaz(self._state())[0]
+        return self._altaz(self._position())[0]
 
     def azimuth(self) -> float:
-        return self._altaz(self._state())[1]
+        return self._altaz(self._position())[1]
 
     def sidereal_time(self) -> float:
         self._require_connected()
@@ -465,8 +472,7 @@ class Telescope:
             return int(PierSide.WEST)
         if state.pier == "E":
             return int(PierSide.EAST)
-        assert state.ra is not None
-        return int(sky.pointing_state(sky.hour_angle(self._lst(), state.ra)))
+        return int(sky.pointing_state(sky.hour_angle(self._lst(), self._position()[0])))
 
     def set_side_of_pier(self, value: int) -> None:
         raise MemberNotImplemented("the mount chooses its pier side itself; SideOfPier cannot be set")
@@ -492,7 +498,8 @@ class Telescope:
 
     def device_state(self) -> list[tuple[str, object]]:
         state = self._state()
-        altitude, azimuth = self._altaz(state)
+        position = self._position()
+        altitude, azimuth = self._altaz(position)
         stamp = self.utc_now()
         if state.position_time is not None:
             stamp -= timedelta(seconds=max(0.0, self.mount.monotonic() - state.position_time))
@@ -501,9 +508,9 @@ class Telescope:
             ("AtHome", self.at_home()),
             ("AtPark", self._parked),
             ("Azimuth", azimuth),
-            ("Declination", float(state.dec)),  # type: ignore[arg-type]
+            ("Declination", position[1]),
             ("IsPulseGuiding", bool(self._pulses)),
-            ("RightAscension", float(state.ra)),  # type: ignore[arg-type]
+            ("RightAscension", position[0]),
             ("SideOfPier", self.side_of_pier()),
             ("SiderealTime", self._lst()),
             ("Slewing", self._motion is not None or bool(state.moving_axes)),
@@ -832,9 +839,8 @@ class Telescope:
     def _sync(self, ra: float, dec: float) -> None:
         if self._motion is not None or self.mount.state.moving_axes:
             raise InvalidOperation("cannot sync while the mount is moving")
-        state = self.mount.state
-        here = (state.ra, state.dec)
-        if here[0] is not None and here[1] is not None and sky.angular_separation(ra, dec, *here) < 1 / 3600:
+        here = self.mount.position()
+        if here is not None and sky.angular_separation(ra, dec, *here) < 1 / 3600:
             # Already there: a sync would change nothing, and near the pole the mount refuses it (e11).
             self.mount.sync_estimate(ra, dec)
             return
@@ -879,12 +885,11 @@ class Telescope:
         self._parked = False
 
     def set_park(self) -> None:
-        state = self._state()
-        assert state.ra is not None and state.dec is not None
-        ha = sky.hour_angle(self._lst(), state.ra)
-        park = dataclasses.replace(self.settings.park, mode="custom", ha_hours=ha, dec_deg=state.dec)
+        ra, dec = self._position()
+        ha = sky.hour_angle(self._lst(), ra)
+        park = dataclasses.replace(self.settings.park, mode="custom", ha_hours=ha, dec_deg=dec)
         self.store.update(lambda s: dataclasses.replace(s, park=park))
-        log.info("park position set to HA %.4f h, Dec %.4f°", ha, state.dec)
+        log.info("park position set to HA %.4f h, Dec %.4f°", ha, dec)
 
     # -- manual motion ---------------------------------------------------------------------------
 
@@ -1044,7 +1049,7 @@ class Telescope:
                     self._stop_axis(axis, f"client {owner} went silent for {now - seen:.0f} s during MoveAxis")
         state = self.mount.state
         if state.ra is not None and state.dec is not None and self._move_owner:
-            altitude, azimuth = self._altaz(state)
+            altitude, azimuth = self._altaz((state.ra, state.dec))
             floor = horizon_altitude_at(self.settings.limits, azimuth)
             if altitude < floor:
                 with self._lock:

@@ -17,7 +17,7 @@ import pytest
 from alpaca_zwo import sky
 from alpaca_zwo.config import LimitSettings, SafetySettings, load_settings
 from tests.faults.conftest import RigFactory
-from tests.faults.harness import AlpacaClient, Verdict, report, wait_until
+from tests.faults.harness import RECONNECT_LIMIT_S, AlpacaClient, Verdict, report, wait_until
 
 WATCHDOG_S = 2.0
 #: The supervisor looks every 0.1 s; the stop command then needs one exchange.
@@ -66,6 +66,37 @@ def test_moveaxis_watchdog(rig_factory: RigFactory, caplog: pytest.LogCaptureFix
                   f"no log line saying which client went silent: {why}")
     verdict.extend(rig.log.problems())
     report("MoveAxis watchdog", configured_s=WATCHDOG_S, stopped_after_silence_s=stop_after, log=why[0] if why else "")
+    verdict.conclude()
+
+
+def test_moveaxis_watchdog_outlasts_a_link_stall(rig_factory: RigFactory, caplog: pytest.LogCaptureFixture) -> None:
+    """The client vanishes and, as the watchdog fires, the mount's WiFi stalls for 8 s: the stop cannot
+    get through then, so it must get through when the mount answers again (it keeps moving otherwise)."""
+    caplog.set_level(logging.INFO, logger="alpaca_zwo")
+    stall_s = 8.0
+    rig = rig_factory(safety=SafetySettings(moveaxis_watchdog_s=WATCHDOG_S))
+    verdict = Verdict("MoveAxis watchdog during a link stall")
+    mover = rig.client(31)
+    mover.command("connected", Connected="true")
+    mover.command("moveaxis", Axis=0, Rate=1.0)
+    silent_from = time.monotonic()
+    time.sleep(WATCHDOG_S / 2)
+    rig.faults.stall(stall_s * 1000)
+    mount_back = time.monotonic() + stall_s
+    wait_until(lambda: any("went silent" in r.getMessage() for r in caplog.records), WATCHDOG_S + 5,
+               "the watchdog to fire")
+    fired = time.monotonic() - silent_from
+    deadline = mount_back + RECONNECT_LIMIT_S
+    while time.monotonic() < deadline and rig.snapshot()["moves_deg_s"][0] is not None:
+        time.sleep(0.1)
+    moving = rig.snapshot()["moves_deg_s"][0] is not None
+    stopped_after = time.monotonic() - mount_back
+    verdict.check(not moving, f"the axis still moves {RECONNECT_LIMIT_S:.0f} s after the mount answered again; "
+                              f"log: {[r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]}")
+    if moving:
+        rig.clients[0].put("abortslew")  # leave the emulator still for teardown
+    report("MoveAxis watchdog during a link stall", fired_after_s=fired,
+           stopped_after_mount_back_s=stopped_after if not moving else "never")
     verdict.conclude()
 
 

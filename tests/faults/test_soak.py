@@ -33,8 +33,8 @@ from tests.faults.harness import (
     wait_until,
 )
 
-SOAK_S = float(os.environ.get("ALPACA_ZWO_SOAK_S", "50"))
-SPEED = float(os.environ.get("ALPACA_ZWO_SOAK_SPEED", "600"))
+SOAK_S = float(os.environ.get("ALPACA_ZWO_SOAK_S", "45"))
+SPEED = float(os.environ.get("ALPACA_ZWO_SOAK_SPEED", "640"))
 WARM_UP_S = 5.0
 #: InvalidOperation: a pulse that meets a slew, or a sync that meets a pulse, is refused by design.
 EXPECTED_ERRORS = (0x40B,)
