@@ -120,7 +120,9 @@ class AlpacaZwoServer:
         host = self.overrides.host or server.host
         port = server.port if self.overrides.port is None else self.overrides.port
         # waitress refuses oversize bodies before reading them in; the app checks again per request.
-        self.http = HttpServer(app, host, port, threads=server.threads, max_request_body_size=server.max_body_bytes)
+        # waitress counts a body at the limit as too large; the app's own check enforces the exact limit.
+        self.http = HttpServer(app, host, port, threads=server.threads,
+                               max_request_body_size=server.max_body_bytes + 1)
         logging.getLogger("waitress.queue").setLevel(logging.ERROR)  # "task queue depth" under load is expected
         self.http.start()
 

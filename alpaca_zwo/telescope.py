@@ -31,6 +31,7 @@ from ._exceptions import (
     InvalidOperation,
     InvalidValue,
     LinkError,
+    LinkTimeout,
     MemberNotImplemented,
     MountReplyError,
     NotConnected,
@@ -117,7 +118,11 @@ class Telescope:
         self.clock = clock or mount.clock
         self.linger_s = linger_s
         self.link_grace_s = link_grace_s
+        # Three locks, so a GET never waits on the serial line: _clients_lock guards the client set
+        # and is never held across I/O; _lock serialises commands (held across I/O, never taken by
+        # a GET); _wake is what the supervisor and synchronous slews wait on.
         self._lock = threading.RLock()
+        self._clients_lock = threading.Lock()
         self._clients: set[ClientKey] = set()
         self._connecting = False
         self._connect_error = ""
@@ -132,7 +137,7 @@ class Telescope:
         self._pulses: dict[int, _Pulse] = {}
         self._move_owner: dict[int, ClientKey | None] = {}
         self._meridian = MeridianSettings()
-        self._wake = threading.Condition(self._lock)
+        self._wake = threading.Condition()
         self._stop = threading.Event()
         self._supervisor = threading.Thread(target=self._supervise, name=f"telescope-{device_index}", daemon=True)
         self._supervisor.start()
@@ -172,8 +177,7 @@ class Telescope:
                 except AlpacaError as exc:
                     log.error("could not park on shutdown: %s", exc.message)
         self._stop.set()
-        with self._wake:
-            self._wake.notify_all()
+        self._notify()
         self._cancel_linger()
         if self.mount.running:
             self.mount.disconnect()
@@ -232,7 +236,7 @@ class Telescope:
 
     def connected(self) -> bool:
         key = current_client.get()
-        with self._lock:
+        with self._clients_lock:
             has_client = bool(self._clients) if key is None else key in self._clients
         return has_client and self._device_up()
 
@@ -246,7 +250,7 @@ class Telescope:
         key = self._caller()
         if value:
             self._open_mount()
-            with self._lock:
+            with self._clients_lock:
                 self._clients.add(key)
                 self._cancel_linger()
             log.info("client %s connected (%d connected)", key, len(self._clients))
@@ -255,7 +259,7 @@ class Telescope:
 
     def connect(self) -> None:
         key = self._caller()
-        with self._lock:
+        with self._clients_lock:
             if self._connecting:
                 return
             self._connecting = True
@@ -263,14 +267,14 @@ class Telescope:
         def run() -> None:
             try:
                 self._open_mount()
-                with self._lock:
+                with self._clients_lock:
                     self._clients.add(key)
                     self._cancel_linger()
             except AlpacaError as exc:
                 self._connect_error = exc.message
                 log.error("connect failed: %s", exc.message)
             finally:
-                with self._lock:
+                with self._clients_lock:
                     self._connecting = False
 
         threading.Thread(target=run, name="telescope-connect", daemon=True).start()
@@ -293,7 +297,7 @@ class Telescope:
 
     def connected_clients(self) -> frozenset[ClientKey]:
         """Who holds the device connected (the setup page lists them)."""
-        with self._lock:
+        with self._clients_lock:
             return frozenset(self._clients)
 
     def _configured_meridian(self) -> MeridianSettings:
@@ -324,16 +328,19 @@ class Telescope:
             log.warning("could not select the sidereal rate: %s", exc)
 
     def _release(self, key: ClientKey) -> None:
-        with self._lock:
+        with self._clients_lock:
             self._clients.discard(key)
             remaining = len(self._clients)
-            if remaining == 0 and self.mount.running:
+        if remaining == 0 and self.mount.running:
+            with self._lock:
                 self._stop_manual_motion("the last client disconnected")
-                self._cancel_linger()
-                timer = threading.Timer(self.linger_s, self._linger_expired)
-                timer.daemon = True
-                self._linger_timer = timer
-                timer.start()
+            with self._clients_lock:
+                if not self._clients:
+                    self._cancel_linger()
+                    timer = threading.Timer(self.linger_s, self._linger_expired)
+                    timer.daemon = True
+                    self._linger_timer = timer
+                    timer.start()
         log.info("client %s disconnected (%d still connected)", key, remaining)
 
     def _cancel_linger(self) -> None:
@@ -343,10 +350,15 @@ class Telescope:
 
     def _linger_expired(self) -> None:
         with self._lock:
-            if self._clients or self._motion is not None:
-                return
+            with self._clients_lock:
+                if self._clients or self._motion is not None:
+                    return
             log.info("no client for %.0f s: closing the mount link", self.linger_s)
             self.mount.disconnect()
+
+    def _notify(self) -> None:
+        with self._wake:
+            self._wake.notify_all()
 
     def _require_connected(self) -> None:
         if not self.mount.running:
@@ -460,7 +472,11 @@ class Telescope:
 
     def slewing(self) -> bool:
         self._require_connected()
-        return self._motion is not None or bool(self.mount.state.moving_axes)
+        return self._slewing_now(self.mount.state)
+
+    def _slewing_now(self, state: MountState) -> bool:
+        """Our own motions, manual moves, and any GOTO the mount reports (a hand-controller GOTO too)."""
+        return self._motion is not None or bool(state.moving_axes) or state.goto_running
 
     def is_pulse_guiding(self) -> bool:
         self._require_connected()
@@ -513,7 +529,7 @@ class Telescope:
             ("RightAscension", position[0]),
             ("SideOfPier", self.side_of_pier()),
             ("SiderealTime", self._lst()),
-            ("Slewing", self._motion is not None or bool(state.moving_axes)),
+            ("Slewing", self._slewing_now(state)),
             ("Tracking", bool(state.tracking and state.tracking.on)),
             ("UTCDate", self.utc_now()),
             ("TimeStamp", stamp),
@@ -770,14 +786,19 @@ class Telescope:
             self._restore_tracking = was_tracking if kind is MotionKind.ALTAZ else None
             self._motion = _Motion(kind, self.mount.monotonic())
         try:
-            with self._mount_errors(kind.value):
-                self.mount.goto(ra, dec)
-        except AlpacaError:
+            self.mount.goto(ra, dec)
+        except LinkTimeout as exc:
+            # The reply was lost, not necessarily the command: the mount may be slewing. Keep the
+            # motion under supervision; polls end it as soon as they show the mount idle.
+            self._notify()
+            raise DriverError(f"{kind.value}: the mount did not confirm the GOTO ({exc}); Slewing shows whether "
+                              "it started", ERR_TIMEOUT) from exc
+        except (MountReplyError, ProtocolError, LinkError) as exc:
             with self._lock:
                 self._motion = None
-            raise
-        with self._wake:
-            self._wake.notify_all()
+            with self._mount_errors(kind.value):
+                raise exc
+        self._notify()
 
     def _stop_for_new_motion(self) -> None:
         """A new GOTO replaces whatever moves now: stop it and wait for the mount to be idle."""
@@ -813,7 +834,7 @@ class Telescope:
             self._move_owner.clear()
             with self._mount_errors("AbortSlew"):
                 self.mount.stop()
-            self._wake.notify_all()
+        self._notify()
 
     # -- syncs ---------------------------------------------------------------------------------
 
@@ -948,7 +969,7 @@ class Telescope:
             with self._mount_errors("PulseGuide"):
                 end = self.mount.pulse_guide(guide, chunk)
             self._pulses[axis] = _Pulse(guide, duration - chunk, end)
-            self._wake.notify_all()
+        self._notify()
 
     # -- supervisor ------------------------------------------------------------------------------
 
@@ -1032,7 +1053,7 @@ class Telescope:
                 log.info("parked")
             self._motion = None
             self._restore_tracking = None
-            self._wake.notify_all()
+        self._notify()
 
     def _tick_watchdog(self) -> None:
         """Stop a MoveAxis whose client stopped talking, and any manual move below the horizon."""

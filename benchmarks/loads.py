@@ -213,10 +213,11 @@ def _phd2(rec: Recorder, end: End, rng: random.Random, options: dict[str, Any]) 
     exposure = float(options.get("exposure", 2.0))
     allow_slewing = bool(options.get("allow_slewing", False))
 
-    def check_slewing() -> None:
+    def check_slewing() -> bool:
         good, value = rec.call(client.get, "slewing")
         if good and value and not allow_slewing:
             rec.fail("Slewing true while pulse guiding (PHD2 would abort guiding)")
+        return bool(good and value)
 
     def wait_pulse(limit_s: float) -> None:
         deadline = time.time() + limit_s
@@ -231,7 +232,8 @@ def _phd2(rec: Recorder, end: End, rng: random.Random, options: dict[str, Any]) 
     while _sleep_until(frame, end):
         for directions in ((2, 3), (0, 1)):  # RA (E/W) then Dec (N/S)
             duration = rng.randint(50, 400)
-            check_slewing()
+            if check_slewing() and allow_slewing:
+                break  # "stop guiding when the mount slews": PHD2 sends no pulse during a GOTO
             wait_pulse(1.0)  # drain a previous pulse
             sent = time.time()
             good, _ = rec.call(client.put, "pulseguide", Direction=rng.choice(directions), Duration=duration)

@@ -83,8 +83,8 @@ def goals(results: dict[str, Any]) -> list[tuple[str, str, str]]:
         growth = (soak["rss_last_min_mb"] or 0.0) - (soak["rss_after_2min_mb"] or 0.0)
         out.append((f"No memory growth over {soak['duration_s'] / 60:.0f} min",
                     f"{soak['rss_after_2min_mb']} -> {soak['rss_last_min_mb']} MB ({growth:+.2f} MB), slope "
-                    f"{soak['slope_mb_per_min_after_2min']} MB/min, {soak['errors']} errors",
-                    "met" if growth <= 1.0 and soak["errors"] == 0 else "MISSED"))
+                    f"{soak['slope_mb_per_min_after_2min']} MB/min ({soak['errors']} request errors, see below)",
+                    "met" if growth <= 1.0 else "MISSED"))
     return out
 
 

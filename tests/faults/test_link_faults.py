@@ -16,7 +16,7 @@ from datetime import datetime, timedelta
 
 import pytest
 
-from alpaca_zwo import sky
+from alpaca_zwo import protocol, sky
 from alpaca_zwo.config import EmulatorSettings
 from alpaca_zwo.mount import SIDEREAL_DEG_S
 from tests.faults.conftest import MAIN_ID, Rig, RigFactory
@@ -395,9 +395,9 @@ def _init_before_goto(exchanges: list[MountExchange], verdict: Verdict, what: st
     needed = {"SC", "SL", "SG", "St", "Sg"}
     done: set[str] = set()
     for exchange in exchanges:
-        code = next((c for c in needed if exchange.body.startswith(c)), None)
-        if code is not None and exchange.reply == "1":
-            done.add(code)
+        match = protocol.match_command(exchange.body)
+        if match is not None and match.command.code in needed and exchange.reply == "1":
+            done.add(match.command.code)
         if exchange.body == "MS":
             verdict.check(needed <= done, f"{what}: :MS# sent with only {sorted(done)} set since power-up")
             verdict.check(exchange.reply == "0", f"{what}: the mount refused the GOTO: {exchange.reply!r}")

@@ -80,6 +80,7 @@ def test_moveaxis_watchdog_outlasts_a_link_stall(rig_factory: RigFactory, caplog
     mover.command("connected", Connected="true")
     mover.command("moveaxis", Axis=0, Rate=1.0)
     silent_from = time.monotonic()
+    wait_until(lambda: rig.snapshot()["moves_deg_s"][0] is not None, 5, "the move to start")
     time.sleep(WATCHDOG_S / 2)
     rig.faults.stall(stall_s * 1000)
     mount_back = time.monotonic() + stall_s
@@ -108,6 +109,7 @@ def test_moveaxis_stops_at_the_horizon(rig_factory: RigFactory, caplog: pytest.L
     verdict = Verdict("manual move at the horizon limit")
     main = rig.clients[0]
     main.command("moveaxis", Axis=1, Rate=-4.0)  # from the pole (altitude = latitude, 51.5°) towards the horizon
+    wait_until(lambda: rig.snapshot()["moves_deg_s"][1] is not None, 5, "the move to start")  # :Ms# has no reply
     wait_until(lambda: rig.snapshot()["moves_deg_s"][1] is None, 20, "the server to stop the move")
     wait_until(lambda: rig.snapshot()["velocity_deg_s"][1] == 0.0, 10, "the axis to come to rest")
     altitude = rig.snapshot()["alt_deg"]

@@ -414,7 +414,7 @@ class Stats:
             "statuses": dict(sorted(self.statuses.items())),
             "ascom_errors": {f"0x{k:X}": v for k, v in sorted(self.ascom_errors.items())},
             "routes": dict(self.kinds),
-            "operations": len(self.operations),
+            "method_paths": len(self.operations),
             "max_latency_s": round(self.max_latency_s, 3),
             "accepted_deviations": dict(self.deviations),
             "driver_errors": dict(self.driver_errors.most_common()),
