@@ -22,6 +22,7 @@ import collections
 import contextlib
 import dataclasses
 import hashlib
+import html
 import importlib.resources
 import itertools
 import json
@@ -231,9 +232,13 @@ class DeviceSetupPage:
                page: str) -> None:
         numbers = [str(i) for i in range(len(self._server.telescopes))]
         if device_type != "telescope" or device_number not in numbers or page != "setup":
-            raise falcon.HTTPForbidden(
-                description=f"No setup page for {device_type}/{device_number}/{page}: this server has "
-                f"telescope {', '.join(numbers) or 'none'} (/setup/v1/telescope/N/setup)")
+            # The Management API documents text/html for this 403, like the page itself.
+            message = (f"No setup page for {device_type}/{device_number}/{page}: this server has telescope "
+                       f"{', '.join(numbers) or 'none'} (/setup/v1/telescope/N/setup)")
+            resp.status = falcon.HTTP_403
+            resp.content_type = falcon.MEDIA_HTML
+            resp.text = f"<!DOCTYPE html><title>No such device</title><p>{html.escape(message)}</p>"
+            return
         self._files.serve(req, resp, "index.html", "no-cache")
 
 

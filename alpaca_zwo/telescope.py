@@ -56,6 +56,12 @@ LINGER_S = 60.0
 #: During a link outage, Connected stays true (last-known state served with its age) this long.
 LINK_GRACE_S = 30.0
 MAX_PULSE_MS = 60_000
+#: The mount's clock keeps a two-digit year; a day of margin either side for the UTC offset.
+MOUNT_EPOCH_FIRST = datetime(2000, 1, 2, tzinfo=timezone.utc)
+MOUNT_EPOCH_LAST = datetime(2099, 12, 30, tzinfo=timezone.utc)
+#: A GOTO takes about this long per degree plus a fixed part; used to aim HA-fixed targets.
+SLEW_S_PER_DEG = 1 / 5.0
+SLEW_S_FIXED = 3.0
 
 DRIVE_RATES = {0: TrackRate.SIDEREAL, 1: TrackRate.LUNAR, 2: TrackRate.SOLAR}
 RATE_CODES = {rate: code for code, rate in DRIVE_RATES.items()}
@@ -169,7 +175,7 @@ class Telescope:
             if park and not self._parked:
                 try:
                     log.info("parking on shutdown")
-                    self.park()
+                    self._park()
                     deadline = time.monotonic() + park_timeout_s
                     with self._wake:
                         while self._motion is not None and time.monotonic() < deadline:
@@ -361,7 +367,10 @@ class Telescope:
             self._wake.notify_all()
 
     def _require_connected(self) -> None:
-        if not self.mount.running:
+        """The device is connected while at least one client holds it (the link may linger longer)."""
+        with self._clients_lock:
+            held = bool(self._clients)
+        if not held or not self.mount.running:
             raise NotConnected("the telescope is not connected: set Connected=true or call Connect first")
 
     def _require_unparked(self, what: str) -> None:
@@ -429,7 +438,11 @@ class Telescope:
 
     def set_utc_date(self, value: datetime) -> None:
         self._require_connected()
-        self._utc_offset = _utc(value) - self.clock()
+        value = _utc(value)
+        if not MOUNT_EPOCH_FIRST <= value <= MOUNT_EPOCH_LAST:
+            raise InvalidValue(
+                f"UTCDate {value.isoformat()} is outside 2000-2099, the years the mount's clock can hold")
+        self._utc_offset = value - self.clock()
         log.info("UTCDate set: clock offset now %.3f s", self._utc_offset.total_seconds())
         with self._mount_errors("setting the mount clock"):
             self.mount.clock_offset = self._utc_offset
@@ -443,8 +456,16 @@ class Telescope:
         self._require_connected()
         if value:
             self._require_unparked("Tracking=true")
-        with self._mount_errors("setting tracking"):
-            self.mount.set_tracking(value)
+        try:
+            with self._mount_errors("setting tracking"):
+                self.mount.set_tracking(value)
+        except DriverError as exc:
+            self.mount.refresh()
+            reason = self.mount.state.tracking.reason if self.mount.state.tracking else ""
+            if reason:
+                raise DriverError(f"the mount refused to {'start' if value else 'stop'} tracking: {reason}",
+                                  ERR_MOUNT_REFUSED) from exc
+            raise
 
     def tracking_rates(self) -> list[int]:
         return sorted(DRIVE_RATES)
@@ -501,7 +522,9 @@ class Telescope:
 
     def _flip_limit_deg(self) -> float:
         meridian = self._meridian
-        return float(meridian.limit_degrees) if meridian.track_after else 0.0
+        limit = float(meridian.limit_degrees)
+        # A negative limit stops tracking before the meridian whatever the "track past" flag says.
+        return limit if limit < 0.0 or meridian.track_after else 0.0
 
     def alignment_mode(self) -> int:
         state = self._state()
@@ -763,6 +786,20 @@ class Telescope:
         self.slew_to_target_async()
         self._wait_motion()
 
+    def _aim_fixed_hour_angle(self, ha: float, dec: float) -> tuple[float, float]:
+        """RA/Dec to GOTO so the mount arrives at a point fixed to the ground (HA/Dec, alt/az).
+
+        A GOTO chases a fixed RA while the sky turns; aiming at the RA the point will have when the
+        slew ends keeps the arrival within a fraction of the sky's motion during the slew.
+        """
+        here = self.mount.position()
+        lst = self._lst()
+        if here is None:
+            return sky.ra_from_hour_angle(lst, ha), dec
+        distance = sky.angular_separation(sky.ra_from_hour_angle(lst, ha), dec, *here)
+        lead_s = SLEW_S_FIXED + distance * SLEW_S_PER_DEG
+        return sky.ra_from_hour_angle(lst + lead_s * 24.0 / 86164.0905, ha), dec
+
     def _radec_from_altaz(self, azimuth: float, altitude: float) -> tuple[float, float]:
         ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
         return sky.ra_from_hour_angle(self._lst(), ha), dec
@@ -771,8 +808,8 @@ class Telescope:
         self._check_horizontal(azimuth, altitude)
         self._require_connected()
         self._require_unparked("SlewToAltAzAsync")
-        ra, dec = self._radec_from_altaz(azimuth, altitude)
-        self._start_goto(ra, dec, MotionKind.ALTAZ)
+        ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
+        self._start_goto(*self._aim_fixed_hour_angle(ha, dec), MotionKind.ALTAZ)
 
     def slew_to_alt_az(self, azimuth: float, altitude: float) -> None:
         self.slew_to_alt_az_async(azimuth, altitude)
@@ -838,10 +875,16 @@ class Telescope:
 
     # -- syncs ---------------------------------------------------------------------------------
 
+    def _require_tracking(self, what: str) -> None:
+        tracking = self.mount.state.tracking
+        if tracking is None or not tracking.on:
+            raise InvalidOperation(f"{what} needs Tracking=true (a sync is made on a tracked position)")
+
     def sync_to_coordinates(self, right_ascension: float, declination: float) -> None:
         self._check_equatorial(right_ascension, declination)
         self._require_connected()
         self._require_unparked("SyncToCoordinates")
+        self._require_tracking("SyncToCoordinates")
         self._sync(right_ascension, declination)
         self._target_ra, self._target_dec = right_ascension, declination
 
@@ -849,6 +892,7 @@ class Telescope:
         ra, dec = self.target_right_ascension(), self.target_declination()
         self._require_connected()
         self._require_unparked("SyncToTarget")
+        self._require_tracking("SyncToTarget")
         self._sync(ra, dec)
 
     def sync_to_alt_az(self, azimuth: float, altitude: float) -> None:
@@ -885,6 +929,9 @@ class Telescope:
 
     def park(self) -> None:
         self._require_connected()
+        self._park()
+
+    def _park(self) -> None:
         if self._parked:
             return  # parking twice is harmless
         park = self.settings.park
@@ -896,7 +943,7 @@ class Telescope:
                 if park.mode == "home":
                     self.mount.home()
                 else:
-                    self.mount.goto(sky.ra_from_hour_angle(self._lst(), park.ha_hours), park.dec_deg)
+                    self.mount.goto(*self._aim_fixed_hour_angle(park.ha_hours, park.dec_deg))
         except AlpacaError:
             self._motion = None
             raise
@@ -916,7 +963,7 @@ class Telescope:
 
     def move_axis(self, axis: int, rate: float) -> None:
         if not self.can_move_axis(axis):
-            raise InvalidValue(f"axis {axis} cannot be moved on this mount")
+            raise MemberNotImplemented(f"axis {axis} cannot be moved on this mount: CanMoveAxis({axis}) is false")
         if not math.isfinite(rate) or (rate != 0.0 and not AXIS_MIN_DEG_S <= abs(rate) <= self._max_rate()):
             raise InvalidValue(
                 f"rate {rate} deg/s is outside the axis rates: 0, or ±{AXIS_MIN_DEG_S:.6f} to ±{self._max_rate():.4f}"

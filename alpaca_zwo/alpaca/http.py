@@ -19,6 +19,17 @@ from waitress.trigger import trigger
 log = logging.getLogger("alpaca_zwo.alpaca.http")
 
 
+class _ExpectContinueChannel(HTTPChannel):
+    """waitress 3.0 sends "100 Continue" for a request that is already complete (no body) and then
+    waits for a body that never comes, so the client hangs. A complete request needs no Continue."""
+
+    def send_continue(self) -> None:
+        if self.request is not None and self.request.completed:
+            self.request.expect_continue = False
+            return
+        super().send_continue()
+
+
 class HttpServer:
     """A waitress server bound at construction; ``start()`` serves, ``close()`` stops and joins."""
 
@@ -41,6 +52,9 @@ class HttpServer:
             "max_request_body_size": max_request_body_size,
         }
         self._server = create_server(app, map=self._map, **options)
+        for listener in self._map.values():
+            if isinstance(listener, BaseWSGIServer):
+                listener.channel_class = _ExpectContinueChannel
         # One wake-up pipe per listener (a host name may resolve to several); any reaches the loop.
         self._triggers: list[trigger] = [d for d in self._map.values() if isinstance(d, trigger)]
         self._thread: threading.Thread | None = None

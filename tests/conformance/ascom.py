@@ -28,7 +28,7 @@ import math
 import re
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from datetime import datetime, timedelta, timezone
 from typing import Any, Protocol
 
@@ -117,7 +117,6 @@ ERROR_CLASSES: dict[int, type[DriverException]] = {
 }
 
 #: ASCOM ErrorCodes values ConformU compares exception numbers with.
-VALUE_NOT_SET = 0x80040402
 INVALID_VALUE = 0x80040401
 INVALID_OPERATION = 0x8004040B
 
@@ -629,16 +628,6 @@ def _alpyca_reply_hook(response: requests.Response, *args: Any, **kwargs: Any) -
         if number == 0 and body.get("DriverException") is not None:
             raise DriverException(f"{member}: the reply carries a DriverException: {body['DriverException']!r}")
     return response
-
-
-def wait_until(predicate: Callable[[], bool], clock: EmulatedClock, timeout_s: float, poll_s: float = 0.1) -> bool:
-    """Poll ``predicate`` on the emulated clock; True as soon as it holds, False after ``timeout_s``."""
-    start = clock.seconds()
-    while not predicate():
-        if clock.seconds() - start > timeout_s:
-            return False
-        clock.sleep(poll_s)
-    return True
 
 
 def julian_date(moment: datetime) -> float:
