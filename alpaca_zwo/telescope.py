@@ -92,8 +92,10 @@ class _Motion:
 
 @dataclass
 class _Pulse:
+    """A guide pulse: it ends at ``deadline`` (mount time) however it is split into chunks."""
+
     direction: Direction
-    remaining_ms: int
+    deadline: float
     chunk_end: float
 
 
@@ -143,6 +145,7 @@ class Telescope:
         self._pulses: dict[int, _Pulse] = {}
         self._move_owner: dict[int, ClientKey | None] = {}
         self._meridian = MeridianSettings()
+        self._stop_pending = ""  # why a safety stop is still owed to the mount ('' = none)
         self._wake = threading.Condition()
         self._stop = threading.Event()
         self._supervisor = threading.Thread(target=self._supervise, name=f"telescope-{device_index}", daemon=True)
@@ -984,17 +987,24 @@ class Telescope:
         if not self._move_owner and not self.mount.state.moving_axes:
             return
         log.warning("stopping manual motion: %s", why)
+        self._move_owner.clear()
         try:
             for axis in (0, 1):
                 if axis in self.mount.state.moving_axes:
                     self.mount.move_axis(axis, 0.0)
         except (LinkError, ProtocolError, MountReplyError) as exc:
-            log.error("could not stop manual motion (%s): %s; sending :Q#", why, exc)
-            try:
-                self.mount.stop()
-            except (LinkError, ProtocolError) as exc2:
-                log.error("stop failed too: %s", exc2)
-        self._move_owner.clear()
+            self._safety_stop(f"{why} (stopping the axes failed: {exc})")
+
+    def _safety_stop(self, why: str) -> None:
+        """Send :Q# now, and keep retrying from the supervisor until the mount has taken it."""
+        try:
+            self.mount.stop()
+            self._stop_pending = ""
+            log.warning("mount stopped: %s", why)
+        except (LinkError, ProtocolError) as exc:
+            if not self._stop_pending:
+                log.error("could not stop the mount (%s): %s; retrying until it answers", why, exc)
+            self._stop_pending = why
 
     # -- guiding -------------------------------------------------------------------------------
 
@@ -1015,7 +1025,7 @@ class Telescope:
         with self._lock:
             with self._mount_errors("PulseGuide"):
                 end = self.mount.pulse_guide(guide, chunk)
-            self._pulses[axis] = _Pulse(guide, duration - chunk, end)
+            self._pulses[axis] = _Pulse(guide, end - chunk / 1000.0 + duration / 1000.0, end)
         self._notify()
 
     # -- supervisor ------------------------------------------------------------------------------
@@ -1040,27 +1050,32 @@ class Telescope:
         return min(delays)
 
     def _tick(self) -> None:
+        if self._stop_pending and self.mount.running:
+            self._safety_stop(self._stop_pending)
         now = self.mount.monotonic()
         self._tick_pulses(now)
         self._tick_motion(now)
         self._tick_watchdog()
 
     def _tick_pulses(self, now: float) -> None:
+        """Send the next chunk of long pulses. If the link is down, retry until the pulse's own end:
+        the mount carries on with the chunk it has, and the rest goes out once the link is back."""
         with self._lock:
             for axis, pulse in list(self._pulses.items()):
                 if now < pulse.chunk_end:
                     continue
-                if pulse.remaining_ms <= 0 or not self.mount.running:
+                remaining_ms = int((pulse.deadline - now) * 1000.0)
+                if remaining_ms < 10 or not self.mount.running:
                     del self._pulses[axis]
                     continue
-                chunk = min(pulse.remaining_ms, PULSE_CHUNK_MS)
+                chunk = min(remaining_ms, PULSE_CHUNK_MS)
                 try:
                     end = self.mount.pulse_guide(pulse.direction, chunk)
                 except (LinkError, ProtocolError) as exc:
-                    log.error("pulse continuation failed: %s", exc)
-                    del self._pulses[axis]
+                    log.warning("pulse continuation failed (%s); retrying until the pulse's end", exc)
+                    self._pulses[axis] = _Pulse(pulse.direction, pulse.deadline, now + 0.05)
                     continue
-                self._pulses[axis] = _Pulse(pulse.direction, pulse.remaining_ms - chunk, end)
+                self._pulses[axis] = _Pulse(pulse.direction, pulse.deadline, end)
 
     def _tick_motion(self, now: float) -> None:
         motion = self._motion
@@ -1130,8 +1145,4 @@ class Telescope:
         try:
             self.mount.move_axis(axis, 0.0)
         except (LinkError, ProtocolError, MountReplyError) as exc:
-            log.error("could not stop axis %d: %s; sending :Q#", axis, exc)
-            try:
-                self.mount.stop()
-            except (LinkError, ProtocolError) as exc2:
-                log.error("stop failed too: %s", exc2)
+            self._safety_stop(f"{why} (stopping axis {axis} failed: {exc})")
