@@ -141,6 +141,7 @@ class Link:
     #: How long a resynchronisation may keep draining a babbling line before giving up for now.
     DRAIN_LIMIT_S = 1.0
     READ_SLICE_S = 0.05
+    PROBE_TIMEOUT_S = 1.0
     PROBE = protocol.query("GVP")
 
     def __init__(
@@ -164,7 +165,7 @@ class Link:
         self._status = LinkStatus(LinkState.CLOSED, url, time.time())
         self._suspect = False
         self._probe_reply: str | None = None  # learnt on the first successful probe
-        self._silent_until = 0.0  # after a failed probe: commands fail fast until then
+
         self._trace: collections.deque[TraceEntry] = collections.deque(maxlen=trace_size)
         self.counters = LinkCounters()
         self._reconnect_thread: threading.Thread | None = None
@@ -238,9 +239,6 @@ class Link:
             if self._port is None:
                 raise LinkError(f"mount link is {self._status.state.value}")
             if self._suspect:
-                if priority is Priority.COMMAND and time.monotonic() < self._silent_until:
-                    # The mount just failed to answer a probe: do not make a client wait for another.
-                    raise LinkTimeout("the mount is not answering (a resynchronisation probe just timed out)")
                 self._resynchronise()
             elif self._port.in_waiting:
                 # Bytes nobody asked for: stale or junk. Get back in step before sending.
@@ -330,9 +328,11 @@ class Link:
             self._port.write(self.PROBE.wire)
             self.counters.bytes_out += len(self.PROBE.wire)
             try:
-                reply = self._read_probe(time.monotonic() + self.timeout)
+                # The probe's reply is ~7 ms away even at 9600 baud, so it gets a short timeout: a
+                # client command waiting behind a resync in a stalled line then still answers in
+                # well under the 5 s clients allow (one exchange in flight + one probe).
+                reply = self._read_probe(time.monotonic() + min(self.PROBE_TIMEOUT_S, self.timeout))
             except LinkTimeout:
-                self._silent_until = time.monotonic() + self.timeout
                 self._record(self.PROBE.text, None, started, f"resync: probe timed out (drained {drained} B)")
                 raise LinkTimeout("the mount did not answer the resynchronisation probe") from None
             if self._drain(self.QUIET_S) == 0 and reply is not None:

@@ -24,6 +24,10 @@ def _f(value: Any, digits: int = 1) -> str:
     return str(value)
 
 
+def _load(values: Any) -> str:
+    return " / ".join(f"{v:.2f}" for v in values) if values else "?"
+
+
 def _http(results: dict[str, Any], test: str, target: str) -> dict[str, Any] | None:
     return next((r for r in results.get("http", []) if r["test"] == test and r["target"] == target), None)
 
@@ -96,8 +100,8 @@ def render(results: dict[str, Any]) -> str:
     lines.append(f"- machine: {machine.get('cpu', '?')}, {machine.get('cores', '?')} cores, "
                  f"{machine.get('memory_gb', '?')} GB, {machine.get('os', '?')}, Python {machine.get('python', '?')}")
     lines.append(f"- packages: {', '.join(f'{k} {v}' for k, v in machine.get('packages', {}).items())}")
-    lines.append(f"- commit {machine.get('commit', '?')}; load average at start {machine.get('loadavg_start')}, "
-                 f"at end {meta.get('loadavg_end')}; pinning: {meta.get('plan', {}).get('pin')}")
+    lines.append(f"- commit {machine.get('commit', '?')}; load average at start {_load(machine.get('loadavg_start'))}, "
+                 f"at end {_load(meta.get('loadavg_end'))}; pinning: {meta.get('plan', {}).get('pin')}")
     plan = meta.get("plan", {})
     patched = f"patched with {plan['server_patch']}" if plan.get("server_patch") else "as committed"
     threads = f", waitress threads {plan['server_threads']}" if plan.get("server_threads") else ""

@@ -14,6 +14,7 @@ import json
 import os
 import platform
 import random
+import shlex
 import subprocess
 import sys
 import threading
@@ -590,8 +591,8 @@ def main(argv: list[str] | None = None) -> int:
     run_dir.mkdir()
     bench = Bench(plan, run_dir)
     started = time.time()
-    results: dict[str, Any] = {"meta": {"command": " ".join([Path(sys.executable).name, "-m", "benchmarks.run",
-                                                              *(argv if argv is not None else sys.argv[1:])]),
+    command = shlex.join(["python", "-m", "benchmarks.run", *(argv if argv is not None else sys.argv[1:])])
+    results: dict[str, Any] = {"meta": {"command": command,
                                         "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                                         "plan": asdict(plan), "note": args.note, "machine": machine_info()}}
     try:
