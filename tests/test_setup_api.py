@@ -143,7 +143,8 @@ def test_setup_pages_are_html_with_security_headers(client: Client) -> None:
 def test_unknown_device_setup_page_is_403(client: Client, path: str) -> None:
     r = client.http.get(client.base + path, timeout=TIMEOUT)
     assert r.status_code == 403
-    assert r.headers["Content-Type"].startswith("text/plain")
+    assert r.headers["Content-Type"].startswith("text/html")  # the Management API documents HTML here
+    assert "No setup page for" in r.text
 
 
 @pytest.mark.parametrize(("name", "content_type"), [

@@ -34,7 +34,7 @@ class HttpServer:
     """A waitress server bound at construction; ``start()`` serves, ``close()`` stops and joins."""
 
     def __init__(self, app: Any, host: str = "0.0.0.0", port: int = 0, *, threads: int = 8,
-                 channel_timeout: int = 60, connection_limit: int = 100,
+                 channel_timeout: int = 60, connection_limit: int = 1000,
                  max_request_body_size: int = 1 << 20) -> None:
         self._map: dict[int, Any] = {}
         options: dict[str, Any] = {

@@ -47,7 +47,7 @@ BAD_VALUES = {
     ValueType.BOOL: [BAD_VALUE, "", "1", "yes"],
     ValueType.INT: [BAD_VALUE, "", "nan", "1.5", "1,5", " 1", "1_000"],
     ValueType.FLOAT: [BAD_VALUE, "", "nan", "inf", "-inf", "1,5", "23,456", " 1", "1_000"],
-    ValueType.UTCDATE: [BAD_VALUE, "", "2022-12-04T17:45:31", "2022-12-04T17:45:31.12345678Z"],
+    ValueType.UTCDATE: [BAD_VALUE, "", "2022-12-04T17:45:31", "2022-12-04T17:45:31.Z"],
 }
 BAD_IDS = [("ClientID", ""), ("ClientID", "     "), ("ClientID", "-12345"), ("ClientID", "NASDAQ"),
            ("ClientTransactionID", ""), ("ClientTransactionID", "     "), ("ClientTransactionID", "-67890"),

@@ -1,0 +1,110 @@
+"""Property test: junk on the line never makes the link misattribute a reply.
+
+A small TCP mount answers with the real emulator's responder but injects hypothesis-chosen junk
+before (or instead of) the reply to one request. The link must either return that request's true
+value or raise one of our errors, and the next request must get its own true value: one bad reply
+never shifts the ones after it.
+
+The junk always holds at least one byte that cannot occur in these replies. Junk made only of
+reply characters (a stray ``1`` before ``90#``) is indistinguishable from data: the ZWO protocol
+has no checksum, so no reader can catch it, and this test does not pretend otherwise.
+"""
+
+from __future__ import annotations
+
+import socket
+import threading
+from collections.abc import Iterator
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from alpaca_zwo import protocol as p
+from alpaca_zwo._exceptions import LinkTimeout, MountReplyError, ProtocolError
+from alpaca_zwo.emulator import ManualClock, MountModel, Responder
+from alpaca_zwo.link import Link
+
+
+class JunkMount:
+    """One TCP connection's worth of mount that puts ``junk`` in front of the next reply (or instead)."""
+
+    def __init__(self) -> None:
+        self.responder = Responder(MountModel(ManualClock(), initialized=True))
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.port = self.listener.getsockname()[1]
+        self.junk = b""
+        self.replace = False
+        self.lock = threading.Lock()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def arm(self, junk: bytes, replace: bool) -> None:
+        with self.lock:
+            self.junk, self.replace = junk, replace
+
+    def _serve(self) -> None:
+        while True:
+            try:
+                conn, _ = self.listener.accept()
+            except OSError:
+                return
+            framer = p.RequestFramer()
+            with conn:
+                while True:
+                    try:
+                        data = conn.recv(4096)
+                    except OSError:
+                        break
+                    if not data:
+                        break
+                    for body in framer.feed(data):
+                        reply = self.responder.handle(body)
+                        with self.lock:
+                            junk, replace = self.junk, self.replace
+                            self.junk, self.replace = b"", False  # one reply is mangled, not all after it
+                        out = junk + (b"" if replace or reply is None else reply.encode("latin-1"))
+                        if out:
+                            conn.sendall(out)
+
+    def close(self) -> None:
+        self.listener.close()
+
+
+@pytest.fixture(scope="module")
+def junk_link() -> Iterator[tuple[Link, JunkMount]]:
+    mount = JunkMount()
+    link = Link(f"socket://127.0.0.1:{mount.port}", timeout=0.25)
+    link.open()
+    link.expect_probe_reply("AM5")
+    yield link, mount
+    link.close()
+    mount.close()
+
+
+EXPECTED = {"GLH": 90, "GRl": 1440, "GVP": "AM5", "GLL": 0}
+#: Bytes none of the replies above can contain (control bytes, high bytes, symbols).
+FOREIGN = bytes([*range(0, 32), *range(127, 256), *b"!$%&'()*+,-./;<=>?@[]^_`{|}~"])
+JUNK = st.binary(min_size=1, max_size=24).filter(lambda b: any(c in FOREIGN for c in b))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(junk=JUNK, replace=st.booleans(),
+       first=st.sampled_from(sorted(EXPECTED)), second=st.sampled_from(sorted(EXPECTED)))
+def test_junk_never_shifts_replies(junk_link: tuple[Link, JunkMount], junk: bytes, replace: bool, first: str,
+                                   second: str) -> None:
+    link, mount = junk_link
+    mount.arm(junk, replace)
+    try:
+        value = link.execute(p.query(first))
+    except (ProtocolError, LinkTimeout, MountReplyError):
+        pass  # refusing the mangled exchange is fine
+    else:
+        assert value == EXPECTED[first], f"junk {junk!r} produced {value!r} for :{first}#"
+    for _ in range(3):  # the probe itself may meet leftovers; the next clean exchange must be exact
+        try:
+            assert link.execute(p.query(second)) == EXPECTED[second]
+            return
+        except (ProtocolError, LinkTimeout):
+            continue
+    pytest.fail(f"the link never got back in step after junk {junk!r}")

@@ -1,0 +1,60 @@
+"""The installed product: a wheel that carries the setup page, console scripts that run from a venv."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import venv
+import zipfile
+from pathlib import Path
+
+import requests
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_wheel_installs_into_a_fresh_venv_and_serves_the_setup_page(tmp_path: Path) -> None:
+    dist = tmp_path / "dist"
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist),
+                    str(ROOT)], check=True, timeout=300)
+    wheel = next(dist.glob("alpaca_zwo-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    for asset in ("index.html", "app.js", "style.css"):
+        assert f"alpaca_zwo/static/{asset}" in names
+
+    # A fresh environment; dependencies come from this interpreter's site-packages (no network).
+    env_dir = tmp_path / "venv"
+    venv.EnvBuilder(with_pip=True, system_site_packages=True).create(env_dir)
+    python = env_dir / "bin" / "python"
+    subprocess.run([str(python), "-m", "pip", "install", "--no-deps", "-q", str(wheel)], check=True, timeout=300)
+    for script in ("alpaca-zwo", "alpaca-zwo-emulator"):
+        version = subprocess.run([str(env_dir / "bin" / script), "--help"], capture_output=True, text=True,
+                                 timeout=60, cwd=tmp_path)
+        assert version.returncode == 0 and "usage" in version.stdout.lower()
+
+    # Run the installed server from a directory without the source tree: the page must come from the wheel.
+    server = subprocess.Popen(
+        [str(env_dir / "bin" / "alpaca-zwo"), "--host", "127.0.0.1", "--port", "0", "--discovery-port", "0",
+         "--config", str(tmp_path / "config.toml")],
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        port = None
+        assert server.stdout is not None
+        for line in server.stdout:
+            match = re.search(r"http://127\.0\.0\.1:(\d+)/setup", line)
+            if match:
+                port = int(match.group(1))
+                break
+        assert port is not None, "the installed server never printed its setup URL"
+        page = requests.get(f"http://127.0.0.1:{port}/setup", timeout=10)
+        assert page.status_code == 200 and "<html" in page.text.lower()
+        script = requests.get(f"http://127.0.0.1:{port}/setup/static/app.js", timeout=10)
+        assert script.status_code == 200 and "javascript" in script.headers["Content-Type"]
+        location = subprocess.run([str(python), "-c", "import alpaca_zwo, sys; print(alpaca_zwo.__file__)"],
+                                  capture_output=True, text=True, timeout=60, cwd=tmp_path).stdout
+        assert str(env_dir) in location, "the venv imported the source tree instead of the installed wheel"
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+    assert server.returncode == 0
