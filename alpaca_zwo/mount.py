@@ -275,8 +275,12 @@ class Mount:
                 return predicted
         return state.ra, state.dec
 
+    @property
+    def clock_rate(self) -> float:
+        """Mount seconds per real second: 1 for a real mount, the speed of a fast emulator."""
+        return self._clock_rate
+
     def _speed(self) -> float:
-        """How many mount seconds pass per real second (1 for a real mount; more for a fast emulator)."""
         return max(1.0, self._clock_rate)
 
     def refresh(self) -> None:

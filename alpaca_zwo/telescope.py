@@ -92,9 +92,11 @@ class _Motion:
 
 @dataclass
 class _Pulse:
-    """A guide pulse: it ends at ``deadline`` (mount time) however it is split into chunks."""
+    """A guide pulse sent in chunks of at most 3 s: ``remaining_ms`` not yet sent, and the mount time
+    by which the whole pulse should be over (a link failure may cost pulse time, nothing else may)."""
 
     direction: Direction
+    remaining_ms: int
     deadline: float
     chunk_end: float
 
@@ -1025,7 +1027,7 @@ class Telescope:
         with self._lock:
             with self._mount_errors("PulseGuide"):
                 end = self.mount.pulse_guide(guide, chunk)
-            self._pulses[axis] = _Pulse(guide, end - chunk / 1000.0 + duration / 1000.0, end)
+            self._pulses[axis] = _Pulse(guide, duration - chunk, end - chunk / 1000.0 + duration / 1000.0, end)
         self._notify()
 
     # -- supervisor ------------------------------------------------------------------------------
@@ -1045,8 +1047,9 @@ class Telescope:
     def _next_wake(self) -> float:
         """Real seconds to wait: 0.1 s at most, sooner when a pulse chunk ends (in mount time)."""
         now = self.mount.monotonic()
+        rate = self.mount.clock_rate
         delays = [0.1]
-        delays.extend(max(0.0, pulse.chunk_end - now) for pulse in self._pulses.values())
+        delays.extend(max(0.0, pulse.chunk_end - now) / rate for pulse in self._pulses.values())
         return min(delays)
 
     def _tick(self) -> None:
@@ -1064,18 +1067,19 @@ class Telescope:
             for axis, pulse in list(self._pulses.items()):
                 if now < pulse.chunk_end:
                     continue
-                remaining_ms = int((pulse.deadline - now) * 1000.0)
-                if remaining_ms < 10 or not self.mount.running:
+                if pulse.remaining_ms < 10 or not self.mount.running:
                     del self._pulses[axis]
                     continue
-                chunk = min(remaining_ms, PULSE_CHUNK_MS)
+                chunk = min(pulse.remaining_ms, PULSE_CHUNK_MS)
                 try:
                     end = self.mount.pulse_guide(pulse.direction, chunk)
                 except (LinkError, ProtocolError) as exc:
-                    log.warning("pulse continuation failed (%s); retrying until the pulse's end", exc)
-                    self._pulses[axis] = _Pulse(pulse.direction, pulse.deadline, now + 0.05)
+                    # What the link outage took is lost; the rest still ends by the pulse's deadline.
+                    left = min(pulse.remaining_ms, int((pulse.deadline - now) * 1000.0))
+                    log.warning("pulse continuation failed (%s); retrying with %d ms left", exc, left)
+                    self._pulses[axis] = _Pulse(pulse.direction, left, pulse.deadline, now + 0.05)
                     continue
-                self._pulses[axis] = _Pulse(pulse.direction, pulse.deadline, end)
+                self._pulses[axis] = _Pulse(pulse.direction, pulse.remaining_ms - chunk, pulse.deadline, end)
 
     def _tick_motion(self, now: float) -> None:
         motion = self._motion
