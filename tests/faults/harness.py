@@ -460,7 +460,9 @@ def trace_notes(trace: list[TraceEntry], since: float = 0.0) -> list[str]:
 
 
 def report(label: str, **numbers: object) -> None:
-    """Print measured outcomes for the README's Reliability section (shown with ``pytest -s``; also kept in a file if asked).
+    """Print measured outcomes for the README's Reliability section.
+
+    Shown with ``pytest -s``; also kept in a file if asked.
 
     ``ALPACA_ZWO_RELIABILITY_LOG`` names a file the lines are appended to, so a CI run can keep them.
     """
