@@ -423,15 +423,6 @@ class Link:
             self._set_state(LinkState.CONNECTED, bump=True, reconnected=True)
             return
 
-    def report_failure(self, exc: BaseException) -> None:
-        """Let a caller declare the link dead (e.g. the mount stopped answering entirely)."""
-        self._arbiter.acquire(Priority.COMMAND, self.timeout * 4)
-        try:
-            if self._port is not None:
-                self._lost(exc)
-        finally:
-            self._arbiter.release()
-
     def _set_state(self, state: LinkState, error: str = "", *, bump: bool = False, reconnected: bool = False) -> None:
         with self._state_changed:
             old = self._status

@@ -66,10 +66,6 @@ class MountInfo:
     def has_meridian_settings(self) -> bool:
         return self.version >= (1, 2, 4)
 
-    @property
-    def has_variable_rate(self) -> bool:
-        return True  # :Rv is in every protocol revision ZWO published since V1.1 was superseded
-
 
 @dataclass(frozen=True)
 class MountSettings:
@@ -230,7 +226,6 @@ class Mount:
         #: Added to the host clock when the mount's time is pushed (a client may set UTCDate).
         self.clock_offset = timedelta(0)
         self._goto_target: tuple[float, float] | None = None
-        self._poll_cycles = 0
         self._commands = 0  # client commands sent so far; lets a poll notice it overlapped one
 
     # -- state -------------------------------------------------------------------------------
@@ -584,7 +579,6 @@ class Mount:
                 if drift != self._estimator.ra_rate:
                     self._estimator.set_ra_rate(drift, now)
                 best = self._estimator.observe(ra, dec, now)
-        self._poll_cycles += 1
         if overlapped:
             self.refresh()
             return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now)

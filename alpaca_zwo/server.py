@@ -6,7 +6,6 @@ make the mounts safe (stop manual motion, optionally park) before their links cl
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import threading
 import time
@@ -183,7 +182,3 @@ class AlpacaZwoServer:
             if emulator is not None:
                 emulator.stop()
 
-
-def with_device_url(settings: Settings, url: str) -> Settings:
-    devices = (dataclasses.replace(settings.devices[0], url=url), *settings.devices[1:])
-    return dataclasses.replace(settings, devices=devices)

@@ -135,7 +135,6 @@ class Telescope:
         self._clients_lock = threading.Lock()
         self._clients: set[ClientKey] = set()
         self._connecting = False
-        self._connect_error = ""
         self._linger_timer: threading.Timer | None = None
         self._target_ra: float | None = None
         self._target_dec: float | None = None
@@ -282,7 +281,6 @@ class Telescope:
                     self._clients.add(key)
                     self._cancel_linger()
             except AlpacaError as exc:
-                self._connect_error = exc.message
                 log.error("connect failed: %s", exc.message)
             finally:
                 with self._clients_lock:
