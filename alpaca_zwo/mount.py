@@ -173,12 +173,23 @@ class PositionEstimator:
 
     def observe(self, raw_ra: float, raw_dec: float, now: float) -> tuple[float, float]:
         predicted = self.predict(now)
-        if predicted is not None:
-            dra = abs((predicted[0] - raw_ra + 12.0) % 24.0 - 12.0)
-            if dra <= self.ra_tolerance_h and abs(predicted[1] - raw_dec) <= self.dec_tolerance_deg:
-                return predicted
-        self.set_exact(raw_ra, raw_dec, now)
-        return raw_ra, raw_dec
+        if predicted is None:
+            self.set_exact(raw_ra, raw_dec, now)
+            return raw_ra, raw_dec
+        dra = abs((predicted[0] - raw_ra + 12.0) % 24.0 - 12.0)
+        ra_ok = dra <= self.ra_tolerance_h
+        dec_ok = abs(predicted[1] - raw_dec) <= self.dec_tolerance_deg
+        if ra_ok and dec_ok:
+            return predicted
+        # Re-anchor only the axis the reading contradicts, keeping motions still in flight (the rest
+        # of a guide pulse): a Dec correction must not move RA, nor drop the rest of a pulse.
+        self._rebase(now)
+        if not ra_ok:
+            self.anchor_ra = raw_ra
+        if not dec_ok:
+            self.anchor_dec = raw_dec
+        assert self.anchor_ra is not None and self.anchor_dec is not None
+        return self.anchor_ra % 24.0, self.anchor_dec
 
 
 SiteProvider = Callable[[], tuple[float, float]]
@@ -450,8 +461,8 @@ class Mount:
         if not 0 <= milliseconds <= PULSE_CHUNK_MS:
             raise ValueError(f"pulse of {milliseconds} ms is outside 0..{PULSE_CHUNK_MS}")
         state = self._state
-        start = self.monotonic()
         self._exec(protocol.pulse_guide(direction, milliseconds))
+        start = self.monotonic()  # the mount times the pulse from its arrival, not from before it was sent
         end = start + milliseconds / 1000.0
         speed_deg = state.guide_rate * SIDEREAL_DEG_S
         dra = ddec = 0.0
