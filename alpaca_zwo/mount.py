@@ -165,6 +165,9 @@ class PositionEstimator:
         self.ra_rate = ra_rate
 
     def add_motion(self, start: float, end: float, dra_per_s: float, ddec_per_s: float) -> None:
+        # Fold finished motions into the anchor first, so a night of guide pulses keeps at most the
+        # ones still running here (predict() runs on every coordinate read).
+        self._rebase(start)
         self.pending.append((start, end, dra_per_s, ddec_per_s))
 
     def invalidate(self) -> None:
@@ -273,7 +276,8 @@ class Mount:
         if state.ra is None or state.dec is None:
             return None
         now = self.monotonic()
-        recent = state.position_time is not None and now - state.position_time <= 3 * self.poll_slow_s * self._speed()
+        window = 3 * self.poll_slow_s * max(1.0, self._clock_rate)
+        recent = state.position_time is not None and now - state.position_time <= window
         if recent and self.link.status.connected and not state.moving_axes:
             with self._estimator_lock:
                 predicted = self._estimator.predict(now)
@@ -285,9 +289,6 @@ class Mount:
     def clock_rate(self) -> float:
         """Mount seconds per real second: 1 for a real mount, the speed of a fast emulator."""
         return self._clock_rate
-
-    def _speed(self) -> float:
-        return max(1.0, self._clock_rate)
 
     def refresh(self) -> None:
         """Ask the poller for a new reading as soon as the line is free."""

@@ -158,6 +158,15 @@ def test_estimator_applies_pulses_and_drift() -> None:
     assert est.predict(8.0)[0] == pytest.approx(1.0 + 3 / 3600)
 
 
+def test_estimator_keeps_only_running_pulses() -> None:
+    est = PositionEstimator()
+    est.set_exact(1.0, 0.0, now=0.0)
+    for i in range(1000):  # a night of 1 s pulses every 2 s
+        est.add_motion(2.0 * i, 2.0 * i + 1.0, 0.0, 1e-6)
+    assert len(est.pending) <= 1
+    assert est.predict(2001.0)[1] == pytest.approx(1000 * 1e-6)
+
+
 def test_estimator_wraps_ra() -> None:
     est = PositionEstimator()
     est.set_exact(23.99999, 0.0, now=0.0)
