@@ -25,7 +25,6 @@ from enum import Enum
 
 from . import __version__, sky
 from ._exceptions import (
-    ActionNotImplemented,
     AlpacaError,
     DriverError,
     InvalidOperation,
@@ -212,10 +211,14 @@ class Telescope:
         return __version__
 
     def supported_actions(self) -> list[str]:
-        return []
+        from . import actions  # the ZWO actions live in their own module (issue 15)
+
+        return actions.supported_actions()
 
     def action(self, action: str, parameters: str) -> str:
-        raise ActionNotImplemented(f"action {action!r} is not supported")
+        from . import actions
+
+        return actions.run_action(self, action, parameters)
 
     def _raw(self, command: str) -> str:
         if not self.settings.server.allow_raw_commands:
