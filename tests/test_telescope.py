@@ -684,10 +684,10 @@ def test_every_member_answers_with_a_valid_envelope(server: AlpacaZwoServer, url
     assert api.exercised == everything, f"not exercised: {sorted(everything - api.exercised)}"
 
 
-def test_ascom_errors_carry_null_value_and_a_message(api: Api) -> None:
-    """ConformU strict mode wants Value present (null) on errors of value-returning members."""
+def test_ascom_errors_carry_default_value_and_a_message(api: Api) -> None:
+    """Errors of value-returning members carry the type's default Value, never null (protocol-rules §6)."""
     reply = api.get("TargetRightAscension")
-    assert reply.error == VALUE_NOT_SET and reply.body["Value"] is None and reply.body["ErrorMessage"]
+    assert reply.error == VALUE_NOT_SET and reply.body["Value"] == 0.0 and reply.body["ErrorMessage"]
     reply = api.put("SiteLatitude", SiteLatitude=95.0)
     assert reply.error == INVALID_VALUE and "Value" not in reply.body
 

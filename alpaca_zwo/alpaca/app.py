@@ -150,10 +150,10 @@ class DeviceApi:
         resp.status = 200
         resp.content_type = JSON
         if call is None:  # raised outside a device call (e.g. by an extra route)
-            resp.data = error_body(False, 0, stid, number, message)
+            resp.data = error_body(None, 0, stid, number, message)
             return
         endpoint, ctid, client, started, args = call
-        resp.data = error_body(endpoint.has_value, ctid, stid, number, message)
+        resp.data = error_body(endpoint.member.error_value, ctid, stid, number, message)
         if endpoint.member.verb == "PUT" and log.isEnabledFor(_INFO):
             log.info("%s(%s) by %s: error 0x%X %s", endpoint.member.name, _describe(endpoint, args), client,
                      number, message)

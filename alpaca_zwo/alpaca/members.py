@@ -38,6 +38,23 @@ class ValueType(str, Enum):
 #: Types a request parameter can have (the rest only ever travel in replies).
 PARAM_TYPES = frozenset({ValueType.BOOL, ValueType.INT, ValueType.FLOAT, ValueType.STR, ValueType.UTCDATE})
 
+#: ``Value`` of an ASCOM error reply, as sent on the wire: the type's default, never null.
+#: The official schema types ``Value`` per member and has no null; the ASCOM .NET simulators send
+#: a fresh typed response (0, 0.0, false, "", []) and typed clients deserialise it before they look
+#: at ErrorNumber (protocol-rules §6 "Value on error", §15.6). A date's default is .NET's
+#: ``DateTime.MinValue`` written the way UTCDate is, so it still matches the schema's ``...Z`` pattern.
+ERROR_VALUES: dict[ValueType, object] = {
+    ValueType.BOOL: False,
+    ValueType.INT: 0,
+    ValueType.FLOAT: 0.0,
+    ValueType.STR: "",
+    ValueType.UTCDATE: "0001-01-01T00:00:00.0000000Z",
+    ValueType.STR_LIST: (),
+    ValueType.INT_LIST: (),
+    ValueType.AXIS_RATES: (),
+    ValueType.DEVICE_STATE: (),
+}
+
 Verb = Literal["GET", "PUT"]
 
 _WORD_BOUNDARY = re.compile(r"(?<=[a-z0-9])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])")
@@ -84,6 +101,11 @@ class Member:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", self.name.lower())
+
+    @property
+    def error_value(self) -> object | None:
+        """``Value`` of this member's ASCOM error reply; None: the reply has no ``Value`` (MethodResponse)."""
+        return None if self.returns is None else ERROR_VALUES[self.returns]
 
 
 def _get(name: str, returns: ValueType, summary: str, *, common: bool = False,

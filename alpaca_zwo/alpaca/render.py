@@ -99,9 +99,11 @@ def method_body(ctid: int, stid: int) -> bytes:
             f'"ErrorNumber":0,"ErrorMessage":""}}').encode()
 
 
-def error_body(has_value: bool, ctid: int, stid: int, number: int, message: str) -> bytes:
-    """ASCOM error reply; ``Value`` is present as null for value-returning members (ConformU strict mode)."""
-    body: dict[str, object] = {"Value": None} if has_value else {}
+def error_body(value: object | None, ctid: int, stid: int, number: int, message: str) -> bytes:
+    """ASCOM error reply. ``value`` is the member's ``Member.error_value`` (its type's default, so
+    typed clients and the official schema never meet a null); None leaves ``Value`` out, as a
+    MethodResponse has none."""
+    body: dict[str, object] = {} if value is None else {"Value": value}
     body.update(ClientTransactionID=ctid, ServerTransactionID=stid, ErrorNumber=number, ErrorMessage=message)
     return _encode(body).encode()
 

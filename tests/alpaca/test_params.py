@@ -196,10 +196,11 @@ def test_bodies_have_exact_keys_in_order() -> None:
                                                        "ErrorNumber", "ErrorMessage"]
     assert json.loads(method_body(3, 4)) == {"ClientTransactionID": 3, "ServerTransactionID": 4,
                                              "ErrorNumber": 0, "ErrorMessage": ""}
-    assert json.loads(error_body(True, 3, 4, 0x401, "bad")) == {
-        "Value": None, "ClientTransactionID": 3, "ServerTransactionID": 4, "ErrorNumber": 0x401,
+    assert json.loads(error_body(0.0, 3, 4, 0x401, "bad")) == {
+        "Value": 0.0, "ClientTransactionID": 3, "ServerTransactionID": 4, "ErrorNumber": 0x401,
         "ErrorMessage": "bad"}
-    assert "Value" not in json.loads(error_body(False, 3, 4, 0x401, "bad"))
+    assert json.loads(error_body((), 3, 4, 0x407, "off"))["Value"] == []
+    assert "Value" not in json.loads(error_body(None, 3, 4, 0x401, "bad"))
 
 
 @pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf, [1.0, math.nan], {"x": math.inf}])

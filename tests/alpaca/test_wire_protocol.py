@@ -90,8 +90,10 @@ def assert_json(r: requests.Response, m: Member | None = None, *, ctid: int | No
     assert body["ErrorNumber"] == error
     if error:
         assert body["ErrorMessage"]
+        if m is not None and m.returns:  # the type's default, never null (protocol-rules §6)
+            assert body["Value"] == json.loads(json.dumps(m.error_value))
         if "Value" in body:
-            assert body["Value"] is None
+            assert body["Value"] is not None
     else:
         assert body["ErrorMessage"] == ""
     return body
@@ -454,9 +456,9 @@ def test_utc_date_round_trip(alpaca: Alpaca) -> None:
     assert alpaca.get("utcdate").json()["Value"] == "2022-12-04T17:45:31.1234560Z"
 
 
-def test_value_null_on_error(alpaca: Alpaca) -> None:
+def test_value_is_the_type_default_on_error(alpaca: Alpaca) -> None:
     body = assert_json(alpaca.get("targetdeclination", OK_IDS), ctid=CTID, error=0x402)
-    assert body["Value"] is None and "not been set" in body["ErrorMessage"]
+    assert body["Value"] == 0.0 and isinstance(body["Value"], float) and "not been set" in body["ErrorMessage"]
 
 
 def test_put_error_has_no_value(alpaca: Alpaca) -> None:
@@ -466,9 +468,9 @@ def test_put_error_has_no_value(alpaca: Alpaca) -> None:
     assert "Value" not in body
 
 
-def test_value_returning_put_error_has_null_value(alpaca: Alpaca) -> None:
+def test_value_returning_put_error_has_default_value(alpaca: Alpaca) -> None:
     body = alpaca.put("action", {"Action": "nope", "Parameters": ""}).json()
-    assert body["ErrorNumber"] == 0x40C and body["Value"] is None
+    assert body["ErrorNumber"] == 0x40C and body["Value"] == ""
     assert alpaca.put("action", {"Action": "echo", "Parameters": "hi"}).json()["Value"] == "hi"
 
 
