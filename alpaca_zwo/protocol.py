@@ -129,6 +129,14 @@ def format_dms(degrees: float, width: int = 2, signed: bool = True, mark: str = 
     return ("-" if degrees < 0 and total > 0 else "+") + body
 
 
+def format_azimuth(degrees: float) -> str:
+    """``DDD*MM:SS`` in [0, 360) for ``:GZ#``/``:GMZA#``: rounding 359.99999 must give 000, not 360."""
+    _check_finite(degrees)
+    total = round(degrees * 3600.0) % (360 * 3600)
+    d, m, s = _split_seconds(total)
+    return f"{d:03d}*{m:02d}:{s:02d}"
+
+
 def format_latitude(latitude: float) -> str:
     """Latitude as the mount takes it: ``sDD*MM:SS``."""
     return format_dms(latitude, 2)

@@ -16,6 +16,7 @@ from .. import protocol
 from .._exceptions import ProtocolError
 from ..protocol import (
     MountMode,
+    format_azimuth,
     format_date,
     format_dms,
     format_hms,
@@ -53,14 +54,6 @@ def _ok(flag: bool) -> str:
 
 def _err(code: int) -> str:
     return f"e{code}#"
-
-
-def _format_azimuth(degrees: float) -> str:
-    """``DDD*MM:SS`` in [0, 360): rounding 359.99999 must give 000, not 360."""
-    total = round(degrees * 3600.0) % (360 * 3600)
-    whole, seconds = divmod(total, 60)
-    d, m = divmod(whole, 60)
-    return f"{d:03d}*{m:02d}:{seconds:02d}"
 
 
 def _two_digits(argument: str) -> int | None:
@@ -128,7 +121,7 @@ class Responder:
             "Gd": lambda a, w: format_dms(m.target()[1]) + "#",
             "GR": lambda a, w: format_hms(m.position()[0]) + "#",
             "GD": lambda a, w: format_dms(m.position()[1]) + "#",
-            "GZ": lambda a, w: _format_azimuth(m.horizontal()[1]) + "#",
+            "GZ": lambda a, w: format_azimuth(m.horizontal()[1]) + "#",
             "GA": lambda a, w: format_dms(m.horizontal()[0]) + "#",
             "GMeq": lambda a, w: f"{format_hms(m.target()[0])}&{format_dms(m.target()[1])}#",
             "GMEQ": self._get_position,
@@ -324,7 +317,7 @@ class Responder:
         alt, az = self.model.horizontal()
         if self.model.firmware.gmza_south_azimuth:
             az += 180.0
-        return f"{_format_azimuth(az)}&{format_dms(alt)}#"
+        return f"{format_azimuth(az)}&{format_dms(alt)}#"
 
     # ---------------------------------------------------------------- motion
 
