@@ -46,6 +46,7 @@ __all__ = [
     "ServerSettings",
     "Settings",
     "SiteSettings",
+    "StellariumSettings",
     "assign_unique_ids",
     "default_config_path",
     "horizon_altitude_at",
@@ -288,6 +289,21 @@ class EmulatorSettings:
     model: str = _setting("AM5", _choice("AM3", "AM5", "AM5N", "AM7"))
 
 
+@dataclass(frozen=True, kw_only=True)
+class StellariumSettings:
+    """Stellarium's telescope server (its "External software or a remote computer" connection).
+
+    Off by default because it opens a second listening port. ``equinox`` must match the equinox
+    chosen for the telescope in Stellarium: J2000 (Stellarium's default) or JNow (the mount's own
+    apparent coordinates, sent unconverted). Stellarium connects over IPv4 only.
+    """
+
+    enabled: bool = _setting(False, _bool)
+    host: str = _setting("0.0.0.0", _str(nonempty=True, pattern=r"\S+", hint="a host name or IPv4 address"))
+    port: int = _setting(10001, _int(0, 65535))  # 0 = any free port
+    equinox: Literal["J2000", "JNow"] = _setting("J2000", _choice("J2000", "JNow"))
+
+
 def _default_devices() -> tuple[DeviceSettings, ...]:
     return (DeviceSettings(),)
 
@@ -304,6 +320,7 @@ class Settings:
     safety: SafetySettings = field(default_factory=SafetySettings)
     logging: LoggingSettings = field(default_factory=LoggingSettings)
     emulator: EmulatorSettings = field(default_factory=EmulatorSettings)
+    stellarium: StellariumSettings = field(default_factory=StellariumSettings)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "devices", tuple(self.devices))
@@ -318,8 +335,9 @@ _SECTIONS: dict[str, type] = {
     "safety": SafetySettings,
     "logging": LoggingSettings,
     "emulator": EmulatorSettings,
+    "stellarium": StellariumSettings,
 }
-_TOP_LEVEL = ("server", "devices", "site", "park", "limits", "safety", "logging", "emulator")
+_TOP_LEVEL = ("server", "devices", "site", "park", "limits", "safety", "logging", "emulator", "stellarium")
 
 
 # --- dict <-> settings --------------------------------------------------------------------------
