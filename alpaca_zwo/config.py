@@ -37,6 +37,7 @@ else:  # pragma: no cover - exercised only on 3.10
     import tomli as tomllib
 
 __all__ = [
+    "ZWO_PORT_DANGEROUS",
     "DeviceSettings",
     "EmulatorSettings",
     "LimitSettings",
@@ -47,6 +48,7 @@ __all__ = [
     "Settings",
     "SiteSettings",
     "StellariumSettings",
+    "ZwoPortSettings",
     "assign_unique_ids",
     "default_config_path",
     "horizon_altitude_at",
@@ -304,6 +306,33 @@ class StellariumSettings:
     equinox: Literal["J2000", "JNow"] = _setting("J2000", _choice("J2000", "JNow"))
 
 
+#: Commands of the shared ZWO port that change the mount for every program (mode, alignment,
+#: firmware-stored settings, BLE pairing, clock): refused unless listed in ``zwo_port.allow_dangerous``.
+ZWO_PORT_DANGEROUS = ("AA", "AP", "NSC", "SOa", "Sp01", "STa", "SLE", "SLD", "SLH", "SLL", "SRl", "SBu",
+                      "SBl", "BS", "SS", "SH")
+
+
+def _dangerous_codes(value: Any) -> tuple[str, ...]:
+    """An array of command codes from ZWO_PORT_DANGEROUS, or ["all"]."""
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+        raise _Invalid(f"must be an array of command codes, not {_kind(value)}")
+    for code in value:
+        if code != "all" and code not in ZWO_PORT_DANGEROUS:
+            raise _Invalid(f"{code!r} is not one of the guarded commands ({', '.join(ZWO_PORT_DANGEROUS)}) or 'all'")
+    return tuple(value)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ZwoPortSettings:
+    """The shared ZWO-protocol TCP port (like the mount's WiFi port 4030) for INDI and other ZWO/LX200 drivers."""
+
+    enabled: bool = _setting(False, _bool)
+    host: str = _setting("0.0.0.0", _str(nonempty=True, pattern=r"\S+", hint="a host name or address"))
+    port: int = _setting(4030, _int(0, 65535))
+    max_clients: int = _setting(16, _int(1, 256))
+    allow_dangerous: tuple[str, ...] = _setting((), _dangerous_codes)
+
+
 def _default_devices() -> tuple[DeviceSettings, ...]:
     return (DeviceSettings(),)
 
@@ -321,6 +350,7 @@ class Settings:
     logging: LoggingSettings = field(default_factory=LoggingSettings)
     emulator: EmulatorSettings = field(default_factory=EmulatorSettings)
     stellarium: StellariumSettings = field(default_factory=StellariumSettings)
+    zwo_port: ZwoPortSettings = field(default_factory=ZwoPortSettings)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "devices", tuple(self.devices))
@@ -336,8 +366,10 @@ _SECTIONS: dict[str, type] = {
     "logging": LoggingSettings,
     "emulator": EmulatorSettings,
     "stellarium": StellariumSettings,
+    "zwo_port": ZwoPortSettings,
 }
-_TOP_LEVEL = ("server", "devices", "site", "park", "limits", "safety", "logging", "emulator", "stellarium")
+_TOP_LEVEL = ("server", "devices", "site", "park", "limits", "safety", "logging", "emulator", "stellarium",
+              "zwo_port")
 
 
 # --- dict <-> settings --------------------------------------------------------------------------
