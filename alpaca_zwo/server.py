@@ -38,6 +38,7 @@ class Overrides:
     mdns: bool | None = None
     emulator_speed: float | None = None
     emulator_baud: int | None = None
+    zwo_port: int | None = None  # --zwo-port N: serve the shared ZWO-protocol port on N for this run
 
 
 class EmbeddedEmulator:
@@ -74,6 +75,7 @@ class AlpacaZwoServer:
         self.http: HttpServer | None = None
         self.discovery: Any = None
         self.advertiser: Any = None
+        self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
         self._extra_routes_factory = extra_routes_factory
         self._stopped = threading.Event()
 
@@ -125,6 +127,8 @@ class AlpacaZwoServer:
         logging.getLogger("waitress.queue").setLevel(logging.ERROR)  # "task queue depth" under load is expected
         self.http.start()
 
+        self._start_zwo_port()
+
         discovery_port = self.overrides.discovery_port
         if discovery_port is None:
             discovery_port = server.discovery_port
@@ -148,6 +152,22 @@ class AlpacaZwoServer:
                 log.error("mDNS advertisement failed: %s", exc)
                 self.advertiser = None
 
+    def _start_zwo_port(self) -> None:
+        """The shared ZWO-protocol TCP port for INDI and other ZWO/LX200 drivers, bound to Telescope 0."""
+        config = self.settings.zwo_port
+        if not (config.enabled or self.overrides.zwo_port is not None) or not self.telescopes:
+            return
+        from .bridges.zwo_port import ZwoPortBridge
+
+        port = config.port if self.overrides.zwo_port is None else self.overrides.zwo_port
+        bridge = ZwoPortBridge(self.telescopes[0], host=config.host, port=port)
+        try:
+            bridge.start()
+        except OSError as exc:  # the port is taken: Alpaca still serves, the log says why INDI cannot connect
+            log.error("ZWO-protocol port %s:%d could not be opened: %s", config.host, port, exc)
+            return
+        self.zwo_port = bridge
+
     def _site(self) -> tuple[float, float]:
         site = self.settings.site
         return site.latitude, site.longitude
@@ -170,6 +190,8 @@ class AlpacaZwoServer:
             return
         self._stopped.set()
         on_shutdown = self.settings.safety.on_shutdown
+        if self.zwo_port is not None:
+            self.zwo_port.stop()  # before the telescopes: no program may start motion during shutdown
         for telescope in self.telescopes:
             telescope.shutdown(park=on_shutdown == "park")
         if self.advertiser is not None:
