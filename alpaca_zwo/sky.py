@@ -20,6 +20,14 @@ from enum import IntEnum
 
 __all__ = [
     "J2000_JD",
+    "LUNAR_DEG_S",
+    "LUNAR_RATE",
+    "SIDEREAL_DAY_S",
+    "SIDEREAL_DEG_S",
+    "SIDEREAL_HOURS_PER_S",
+    "SOLAR_DEG_S",
+    "SOLAR_RATE",
+    "SOLAR_SECONDS_PER_SIDEREAL_SECOND",
     "TT_MINUS_UTC_S",
     "PierSide",
     "angular_separation",
@@ -42,6 +50,34 @@ J2000_JD = 2451545.0
 
 TT_MINUS_UTC_S = 69.184
 """TT - UTC in seconds since 2017 (37 leap seconds + 32.184 s); only feeds a tiny GMST term."""
+
+SIDEREAL_DAY_S = 86164.0905
+"""Length of a mean sidereal day in SI seconds: the one home of the sidereal rate."""
+
+SIDEREAL_DEG_S = 360.0 / SIDEREAL_DAY_S
+"""Hour-angle rate of a fixed star, degrees per second (15.041 arcsec/s): "1x sidereal" for motion rates."""
+
+SIDEREAL_HOURS_PER_S = 24.0 / SIDEREAL_DAY_S
+"""Sidereal hours that pass in one SI second."""
+
+SOLAR_SECONDS_PER_SIDEREAL_SECOND = SIDEREAL_DAY_S / 86400.0
+"""0.99727: an hour of hour angle takes this many solar hours while tracking at the sidereal rate."""
+
+SOLAR_RATE = SOLAR_SECONDS_PER_SIDEREAL_SECOND
+"""The Sun's tracking rate as a multiple of sidereal (the Sun returns to the meridian every 86400 s)."""
+
+LUNAR_RATE = 1.0 - 1.0 / 27.321661 * SOLAR_SECONDS_PER_SIDEREAL_SECOND
+"""The Moon's mean tracking rate as a multiple of sidereal (it moves east once per 27.32-day sidereal month)."""
+
+SOLAR_DEG_S = 360.0 / 86400.0
+"""The mean Sun's hour-angle rate, degrees per second (15.000 arcsec/s)."""
+
+LUNAR_DEG_S = 14.685 / 3600.0
+"""ASCOM's ``driveLunar`` rate, degrees per second, which the emulator's lunar tracking follows.
+
+Not the same number as ``LUNAR_RATE * SIDEREAL_DEG_S`` (14.49 arcsec/s, the Moon's mean motion):
+the two are kept apart as they were, so neither the estimator nor the emulator changes behaviour.
+"""
 
 _J2000 = datetime(2000, 1, 1, 12, 0, 0, tzinfo=timezone.utc)
 _SECONDS_PER_DAY = 86400.0

@@ -9,8 +9,9 @@ import pytest
 
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.link import Link
-from alpaca_zwo.mount import SIDEREAL_DEG_S, Mount, MountState, PositionEstimator
+from alpaca_zwo.mount import Mount, MountState, PositionEstimator
 from alpaca_zwo.protocol import Direction, TrackRate
+from alpaca_zwo.sky import SIDEREAL_DEG_S
 
 SITE = (48.8566, 2.3522)  # Paris: east-positive longitude
 

@@ -48,13 +48,12 @@ from alpaca_zwo.config import (
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.protocol import MeridianSettings, MountMode
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.sky import SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
 from tests.conftest import ServerFactory, make_settings
 
 T = TypeVar("T")
 
 SPEED = 10.0  # emulator clock rate: mount seconds per real second
-SIDEREAL_DEG_S = 360.0 / 86164.0905  # 15.041"/s
-SIDEREAL_HOURS_PER_S = 24.0 / 86164.0905
 ARCSEC = 1.0 / 3600.0
 MOTION_TIMEOUT_S = 40.0  # real seconds; the longest slew at SPEED is a few seconds
 

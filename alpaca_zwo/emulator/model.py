@@ -35,15 +35,13 @@ from typing import Any
 
 from .. import sky
 from ..protocol import SLEW_SPEEDS, MeridianSettings, MountMode, MountStatus
+from ..sky import LUNAR_DEG_S, SIDEREAL_DEG_S, SOLAR_DEG_S
 from .clock import Clock
 from .faults import FaultEvent, Faults
 
 __all__ = [
     "FACTORY_LATITUDE",
     "FACTORY_LONGITUDE",
-    "LUNAR_DEG_S",
-    "SIDEREAL_DEG_S",
-    "SOLAR_DEG_S",
     "FirmwareVariant",
     "MountModel",
 ]
@@ -52,9 +50,6 @@ __all__ = [
 # Constants
 # --------------------------------------------------------------------------------------------
 
-SIDEREAL_DEG_S = 360.0 * 1.00273790935 / 86400.0  # HA rate of a fixed star: 15.041"/s
-SOLAR_DEG_S = 360.0 / 86400.0  # mean Sun: 15.000"/s
-LUNAR_DEG_S = 14.685 / 3600.0  # ASCOM's driveLunar rate
 
 #: The site stored in every mount at the factory (Suzhou): +31°15'41", 120°43'11" E.
 FACTORY_LATITUDE = 31.0 + 15.0 / 60.0 + 41.0 / 3600.0

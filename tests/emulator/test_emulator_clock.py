@@ -8,7 +8,7 @@ from datetime import datetime, timedelta, timezone
 import pytest
 
 from alpaca_zwo.emulator import ManualClock, MountModel, ScaledClock
-from alpaca_zwo.emulator.model import SIDEREAL_DEG_S
+from alpaca_zwo.sky import SIDEREAL_DEG_S
 
 
 def test_manual_clock_moves_only_when_advanced() -> None:

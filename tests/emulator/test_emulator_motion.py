@@ -8,7 +8,7 @@ from emuclient import MountClient, flags, initialize, slew, target_at, wait_slew
 
 from alpaca_zwo import protocol, sky
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
-from alpaca_zwo.emulator.model import SIDEREAL_DEG_S
+from alpaca_zwo.sky import SIDEREAL_DEG_S
 
 ARCSEC = 1.0 / 3600.0
 SIDEREAL_ARCSEC_S = SIDEREAL_DEG_S * 3600.0

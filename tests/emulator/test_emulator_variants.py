@@ -11,7 +11,7 @@ from emuclient import MountClient, flags, slew, target_at, wait_slew
 
 from alpaca_zwo import protocol
 from alpaca_zwo.emulator import FirmwareVariant, ManualClock, MountModel
-from alpaca_zwo.emulator.model import SIDEREAL_DEG_S
+from alpaca_zwo.sky import SIDEREAL_DEG_S
 
 
 @pytest.mark.parametrize("firmware", [FirmwareVariant(home_flag="always_at_home")])

@@ -18,7 +18,7 @@ import pytest
 
 from alpaca_zwo import protocol, sky
 from alpaca_zwo.config import EmulatorSettings
-from alpaca_zwo.mount import SIDEREAL_DEG_S
+from alpaca_zwo.sky import SIDEREAL_DEG_S
 from tests.faults.conftest import MAIN_ID, Rig, RigFactory
 from tests.faults.harness import (
     RECONNECT_LIMIT_S,
