@@ -38,6 +38,7 @@ class Overrides:
     mdns: bool | None = None
     emulator_speed: float | None = None
     emulator_baud: int | None = None
+    stellarium_port: int | None = None  # --stellarium-port N: Stellarium's telescope server on N
     zwo_port: int | None = None  # --zwo-port N: serve the shared ZWO-protocol port on N for this run
 
 
@@ -75,6 +76,7 @@ class AlpacaZwoServer:
         self.http: HttpServer | None = None
         self.discovery: Any = None
         self.advertiser: Any = None
+        self.stellarium: Any = None  # bridges.stellarium.StellariumBridge when [stellarium] is on
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
         self._extra_routes_factory = extra_routes_factory
         self._stopped = threading.Event()
@@ -126,6 +128,7 @@ class AlpacaZwoServer:
                                max_request_body_size=server.max_body_bytes + 1)
         logging.getLogger("waitress.queue").setLevel(logging.ERROR)  # "task queue depth" under load is expected
         self.http.start()
+        self._start_stellarium()
 
         self._start_zwo_port()
 
@@ -168,6 +171,23 @@ class AlpacaZwoServer:
             return
         self.zwo_port = bridge
 
+    def _start_stellarium(self) -> None:
+        """Stellarium's telescope server, bound to Telescope 0."""
+        config = self.settings.stellarium
+        if not (config.enabled or self.overrides.stellarium_port is not None) or not self.telescopes:
+            return
+        from .bridges.stellarium import StellariumBridge
+
+        port = config.port if self.overrides.stellarium_port is None else self.overrides.stellarium_port
+        bridge = StellariumBridge(self.telescopes[0], host=config.host, port=port, equinox=config.equinox)
+        try:
+            bridge.start()
+        except OSError as exc:  # the port is taken: Alpaca still serves, the log says why Stellarium cannot connect
+            log.error("%s", exc)
+            bridge.stop()
+            return
+        self.stellarium = bridge
+
     def _site(self) -> tuple[float, float]:
         site = self.settings.site
         return site.latitude, site.longitude
@@ -190,6 +210,8 @@ class AlpacaZwoServer:
             return
         self._stopped.set()
         on_shutdown = self.settings.safety.on_shutdown
+        if self.stellarium is not None:
+            self.stellarium.stop()  # before the telescopes: Stellarium must not start a goto now
         if self.zwo_port is not None:
             self.zwo_port.stop()  # before the telescopes: no program may start motion during shutdown
         for telescope in self.telescopes:
