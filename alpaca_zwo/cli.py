@@ -41,6 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--zwo-port", type=int, metavar="N",
                         help="serve the mount's own ZWO protocol on TCP port N for INDI and other ZWO/LX200 "
                              "drivers (like the mount's WiFi port 4030), shared with Alpaca; for this run only")
+    parser.add_argument("--stellarium-port", type=int, metavar="N",
+                        help="serve Stellarium's telescope protocol on TCP port N (its default is 10001), "
+                             "for this run only; see [stellarium] in the config")
     parser.add_argument("--log-level", default=None, choices=["DEBUG", "INFO", "WARNING", "ERROR"],
                         help="logging level (default from the config file: INFO)")
     parser.add_argument("--version", action="version", version=f"alpaca-zwo {__version__}")
@@ -68,7 +71,8 @@ def server_main(argv: list[str] | None = None) -> int:
     _configure_logging(args.log_level or settings.logging.level, settings.logging.file)
     overrides = Overrides(host=args.host, port=args.port, discovery_port=args.discovery_port,
                           device_url=args.device, mdns=args.mdns, emulator_speed=args.emulator_speed,
-                          emulator_baud=args.emulator_baud, zwo_port=args.zwo_port)
+                          emulator_baud=args.emulator_baud, stellarium_port=args.stellarium_port,
+                          zwo_port=args.zwo_port)
     from .setup import setup_routes
 
     server = AlpacaZwoServer(SettingsStore(settings, path), overrides, extra_routes_factory=setup_routes)
