@@ -12,7 +12,9 @@ from pathlib import Path
 from . import __version__
 from ._exceptions import AlpacaZwoError, ConfigError
 from .config import default_config_path, load_settings
+from .devices import DeviceError, check_device, find_mount, format_candidates, list_candidates
 from .server import AlpacaZwoServer, Overrides
+from .service import KINDS, render
 from .store import SettingsStore
 
 log = logging.getLogger("alpaca_zwo")
@@ -25,8 +27,17 @@ def build_parser() -> argparse.ArgumentParser:
         "mount emulator, so you can try it with no hardware.",
     )
     parser.add_argument("--device", metavar="URL",
-                        help="the mount: a serial port (/dev/ttyACM0, COM3) or a pyserial URL such as "
-                             "socket://192.168.4.1:4030 (the mount's WiFi); default: the built-in emulator")
+                        help="the mount: a serial port (/dev/ttyACM0, COM3), a pyserial URL such as "
+                             "socket://192.168.4.1:4030 (the mount's WiFi), or 'auto' to find the mount on USB; "
+                             "default: the built-in emulator")
+    parser.add_argument("--list-devices", action="store_true",
+                        help="list the serial ports, what each is and what answered, then exit")
+    parser.add_argument("--probe", action="append", default=[], metavar="PORT",
+                        help="also ask PORT (one the OS does not list, e.g. a symlink) with --device auto / "
+                             "--list-devices; may be repeated")
+    parser.add_argument("--print-service", choices=KINDS, metavar="KIND",
+                        help="print a start-at-boot definition for this install and these options, then exit: "
+                             "systemd (unit), launchd (plist) or windows (PowerShell for Task Scheduler)")
     parser.add_argument("--host", help="address to listen on (default from the config file: 0.0.0.0)")
     parser.add_argument("--port", type=int, help="HTTP port (default 11111; 0 picks a free port)")
     parser.add_argument("--discovery-port", type=int, help="Alpaca UDP discovery port (default 32227; 0 = off)")
@@ -60,9 +71,68 @@ def _configure_logging(level: str, file: str) -> None:
                         format="%(asctime)s %(levelname)-7s %(name)s: %(message)s")
 
 
+def _service_args(args: argparse.Namespace, config: Path) -> list[str]:
+    """The options of this command line that the service should start the server with."""
+    out = ["--config", str(config.absolute())]
+    for flag, value in (("--device", args.device), ("--host", args.host), ("--port", args.port),
+                        ("--discovery-port", args.discovery_port), ("--emulator-speed", args.emulator_speed),
+                        ("--emulator-baud", args.emulator_baud), ("--log-level", args.log_level)):
+        if value is not None:
+            out += [flag, str(value)]
+    out += [word for port in args.probe for word in ("--probe", port)]
+    return [*out, "--mdns"] if args.mdns else out
+
+
+def _resolve_device(args: argparse.Namespace) -> str | None:
+    """``--device auto`` becomes the mount's port; an explicit port is checked. DeviceError says what to do."""
+    if args.device == "auto":
+        device = find_mount(args.probe)
+        print(f"alpaca-zwo: found the mount at {device}", file=sys.stderr, flush=True)
+        return device
+    if args.device:
+        warning = check_device(args.device)
+        if warning:
+            print(f"alpaca-zwo: warning: {warning}", file=sys.stderr, flush=True)
+    return args.device
+
+
+def _one_shot(args: argparse.Namespace, path: Path) -> int | None:
+    """The commands that print something and exit (None when the server should run)."""
+    if args.print_service:
+        print(render(args.print_service, _service_args(args, path)), end="")
+        return 0
+    if args.list_devices:
+        candidates = list_candidates(args.probe)
+        print(format_candidates(candidates))
+        mounts = [c.device for c in candidates if c.is_mount]
+        print(f"mount: {', '.join(mounts)}" if mounts else "no ZWO mount answered")
+        return 0
+    return None
+
+
+def _install_stop_handlers(stop: threading.Event) -> None:
+    """SIGTERM where the OS has it, Ctrl-C everywhere, Ctrl-Break (SIGBREAK) on Windows."""
+
+    def on_signal(signum: int, _frame: object) -> None:
+        log.info("signal %d: stopping", signum)
+        stop.set()
+
+    for name in ("SIGINT", "SIGTERM", "SIGBREAK"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), on_signal)
+
+
 def server_main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     path = args.config or default_config_path()
+    done = _one_shot(args, path)
+    if done is not None:
+        return done
+    try:
+        args.device = _resolve_device(args)
+    except DeviceError as exc:
+        print(f"alpaca-zwo: {exc}", file=sys.stderr)
+        return 1
     try:
         settings = load_settings(path)
     except ConfigError as exc:
@@ -77,13 +147,7 @@ def server_main(argv: list[str] | None = None) -> int:
 
     server = AlpacaZwoServer(SettingsStore(settings, path), overrides, extra_routes_factory=setup_routes)
     stop = threading.Event()
-
-    def on_signal(signum: int, _frame: object) -> None:
-        log.info("signal %d: stopping", signum)
-        stop.set()
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    _install_stop_handlers(stop)
     try:
         server.start()
     except (AlpacaZwoError, OSError) as exc:
@@ -94,7 +158,8 @@ def server_main(argv: list[str] | None = None) -> int:
     for line in server.urls():
         print("  " + line, flush=True)
     try:
-        stop.wait()
+        while not stop.wait(0.5):  # a timed wait: Windows delivers Ctrl-C only between waits
+            pass
     finally:
         server.stop()
     print("alpaca-zwo stopped", flush=True)

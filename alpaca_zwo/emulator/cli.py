@@ -22,7 +22,7 @@ from types import FrameType
 from .clock import ScaledClock
 from .control import ControlServer
 from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, FirmwareVariant, MountModel
-from .server import EmulatorServer
+from .server import EmulatorServer, pty_support_error
 
 __all__ = ["build_parser", "main"]
 
@@ -136,8 +136,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     def _on_signal(_signum: int, _frame: FrameType | None) -> None:
         stop.set()
 
-    signal.signal(signal.SIGTERM, _on_signal)
-    signal.signal(signal.SIGINT, _on_signal)
+    # SIGTERM where the OS has it, Ctrl-C everywhere, Ctrl-Break (SIGBREAK) on Windows.
+    for name in ("SIGTERM", "SIGINT", "SIGBREAK"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), _on_signal)
+    if args.pty and (reason := pty_support_error()):
+        print(f"alpaca-zwo-emulator: {reason}", file=sys.stderr)
+        return 2
 
     clock = ScaledClock(speed=args.speed, start_utc=args.start_time)
     model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized)

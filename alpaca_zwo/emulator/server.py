@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import fcntl
 import itertools
 import logging
 import os
@@ -22,7 +21,6 @@ import socket
 import struct
 import threading
 import time
-import tty
 from typing import Any
 
 from .faults import FaultEvent, Faults
@@ -30,12 +28,28 @@ from .framing import MountFramer
 from .model import MountModel
 from .responder import Responder
 
-__all__ = ["EmulatorServer"]
+__all__ = ["EmulatorServer", "pty_support_error"]
 
 _log = logging.getLogger(__name__)
 
 _BITS_PER_BYTE = 10  # start + 8 data + stop
 _POLL_S = 0.1  # how often idle loops look at the stop flag
+
+
+def pty_support_error() -> str | None:
+    """Why this interpreter cannot serve a pseudo-terminal, or None when it can.
+
+    The pty is the only POSIX-only part of the emulator (Windows has no ``os.openpty``, ``fcntl``
+    or ``tty``), so those modules are imported here, on demand, and never on the TCP-only path.
+    """
+    if not hasattr(os, "openpty"):
+        return "a pseudo-terminal (--pty) needs a POSIX system (Linux, macOS); use the TCP port instead"
+    try:
+        import fcntl  # noqa: F401
+        import tty  # noqa: F401
+    except ImportError as exc:
+        return f"a pseudo-terminal (--pty) needs the POSIX modules fcntl and tty ({exc}); use the TCP port instead"
+    return None
 
 
 def _sleep_until(deadline: float, cancelled: threading.Event | None = None) -> None:
@@ -233,6 +247,9 @@ class _PtyLine(_Line):
     kind = "pty"
 
     def __init__(self, server: EmulatorServer, line_id: int) -> None:
+        import fcntl  # POSIX-only, so imported only when a pty is really wanted
+        import tty
+
         master, slave = os.openpty()
         tty.setraw(slave)  # no echo, no line discipline: bytes pass as on a CDC-ACM port
         flags = fcntl.fcntl(master, fcntl.F_GETFL)
@@ -306,6 +323,8 @@ class EmulatorServer:
     ) -> None:
         if baud < 0:
             raise ValueError("baud must be >= 0")
+        if pty and (reason := pty_support_error()):
+            raise OSError(errno.ENOSYS, reason)
         self.model = model
         self.responder = Responder(model)
         self.host = host
