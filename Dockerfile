@@ -2,6 +2,7 @@
 #   docker build -t alpaca-zwo .
 #   docker run --rm --network host --device /dev/ttyACM0 -v alpaca-zwo:/config alpaca-zwo --device /dev/ttyACM0
 # Without --device the built-in emulator is used. The config (with the persistent UniqueID) lives in /config.
+# Pure Python: the same file builds for amd64, arm64 and armv7. Tested by tests/platform/test_container.py.
 FROM python:3.11-slim
 
 ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 PIP_NO_CACHE_DIR=1
@@ -18,7 +19,8 @@ USER alpaca
 VOLUME ["/config"]
 EXPOSE 11111/tcp 32227/udp
 
+# Asks /management/apiversions on the port the server was given (--port, or server.port in /config).
 HEALTHCHECK --interval=30s --timeout=5s --start-period=10s --retries=3 \
-    CMD python -c "import urllib.request,sys; urllib.request.urlopen('http://127.0.0.1:11111/management/apiversions', timeout=4); sys.exit(0)"
+    CMD ["python", "-m", "alpaca_zwo.healthcheck"]
 
 ENTRYPOINT ["alpaca-zwo", "--config", "/config/config.toml"]
