@@ -1,23 +1,375 @@
-"""ZWO features beyond ITelescopeV4, served through Alpaca's Action() / SupportedActions.
+"""ZWO features beyond ITelescopeV4, served through Alpaca's ``Action()`` and ``SupportedActions``.
 
-(Work in progress: the table of actions is filled in by the following commits.)
+The mount stores settings no ASCOM member reaches (buzzer, heavy-duty mode, meridian behaviour,
+altitude limits, EQ/alt-az mode) and the server has its own horizon limits; each is one
+:class:`ZwoAction` in :data:`ACTIONS`, a table rather than an if-chain, so the README, SupportedActions
+and the dispatcher cannot drift apart.
+
+Conventions, the same for every action:
+
+- Names are ``zwo:Name`` (the ASCOM ``vendor:Action`` style) and match case-insensitively.
+- ``Parameters`` is a JSON object. Empty (``""``/``"{}"``) reads; keys write and the reply is the
+  state read back afterwards, so a client sees what the mount really took.
+- The reply is always a JSON object (a string, as Action returns strings).
+- Every parameter is checked before anything is sent, so a bad one (InvalidValue 0x401) leaves the
+  mount and the configuration untouched. Unknown names are ActionNotImplemented (0x40C); a
+  disconnected device is NotConnected (0x407); link or mount failures are the Telescope's DriverErrors.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+import json
+import math
+import weakref
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
-from ._exceptions import ActionNotImplemented
+from ._exceptions import (
+    ActionNotImplemented,
+    ConfigError,
+    DriverError,
+    InvalidValue,
+    LinkError,
+    MemberNotImplemented,
+    MountReplyError,
+    NotConnected,
+    ProtocolError,
+)
+from .config import Settings, settings_from_dict, settings_to_dict
+from .protocol import MeridianSettings, MountMode, parse_status
 
 if TYPE_CHECKING:
+    from .mount import MountSettings
     from .telescope import Telescope
+
+# DriverError numbers, the same as the Telescope's, so scripts tell the cases apart the same way.
+ERR_LINK = 0x500
+ERR_MOUNT_REFUSED = 0x501
+ERR_MOUNT_PROTOCOL = 0x502
+
+BUZZER_LEVELS = ("off", "low", "high")  # :SBu0# .. :SBu2#
+MODE_NAMES = {MountMode.EQUATORIAL: "equatorial", MountMode.ALTAZ: "altaz", MountMode.UNKNOWN: "unknown"}
+RESTART_MESSAGE = ("The mount must be restarted (switched off and on) for the new mode to take effect; "
+                   "until then it keeps working in {current} mode.")
+
+Reply = dict[str, Any]
+
+
+# ================================================================================================
+# Parameter checks: each returns the value to use or raises ValueError with the reason
+# ================================================================================================
+
+
+def _integer(low: int, high: int) -> Callable[[object], int]:
+    def check(value: object) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ValueError(f"must be an integer from {low} to {high}, got {json.dumps(value)}")
+        return value
+
+    return check
+
+
+def _number(low: float, high: float) -> Callable[[object], float]:
+    def check(value: object) -> float:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        if not ok or not low <= value <= high:  # type: ignore[operator]
+            raise ValueError(f"must be a number from {low:g} to {high:g}, got {json.dumps(value)}")
+        return float(value)  # type: ignore[arg-type]
+
+    return check
+
+
+def _boolean(value: object) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f"must be true or false, got {json.dumps(value)}")
+    return value
+
+
+def _choice(*names: str) -> Callable[[object], str]:
+    def check(value: object) -> str:
+        if not isinstance(value, str) or value.lower() not in names:
+            raise ValueError(f"must be one of {', '.join(json.dumps(n) for n in names)}, got {json.dumps(value)}")
+        return value.lower()
+
+    return check
+
+
+def _points(value: object) -> list[list[float]]:
+    """The shape only; ranges and duplicates are the configuration's own rules (checked on save)."""
+    if not isinstance(value, list) or not all(isinstance(p, list) and len(p) == 2 for p in value):
+        raise ValueError("must be an array of [azimuth, altitude] pairs in degrees, e.g. [[0, 10], [180, 25]]")
+    return [[_number(-math.inf, math.inf)(az), _number(-math.inf, math.inf)(alt)] for az, alt in value]
+
+
+@dataclass(frozen=True)
+class Field:
+    """A writable key of an action's parameter object."""
+
+    check: Callable[[object], object]
+    doc: str
+
+
+# ================================================================================================
+# Shared helpers
+# ================================================================================================
+
+
+def _settings(telescope: Telescope) -> MountSettings:
+    """The settings stored in the mount (a few short queries); a value it did not report is None."""
+    return telescope.mount.read_settings()
+
+
+def _require_meridian_firmware(telescope: Telescope) -> None:
+    info = telescope.mount.state.info
+    if info is not None and not info.has_meridian_settings:
+        raise MemberNotImplemented(f"this {info.model} has firmware {info.firmware}; meridian settings "
+                                   "(:GTa#/:STa) need firmware 1.2.4 or later")
+
+
+def _save(telescope: Telescope, section: str, values: Mapping[str, object]) -> Settings:
+    """Persist configuration values through the settings store, as the setup page does."""
+
+    def change(current: Settings) -> Settings:
+        data = settings_to_dict(current)
+        data[section] = {**data[section], **values}
+        return settings_from_dict(data, "Action")
+
+    try:
+        return telescope.store.update(change)
+    except ConfigError as exc:
+        raise InvalidValue(f"invalid setting: {exc}") from None
+
+
+@contextmanager
+def _mount_errors(what: str) -> Iterator[None]:
+    """Link and mount failures become the DriverErrors the Telescope uses for the same causes."""
+    try:
+        yield
+    except MountReplyError as exc:
+        raise DriverError(f"{what}: the mount refused: {exc.meaning or exc.reply}", ERR_MOUNT_REFUSED) from exc
+    except ProtocolError as exc:
+        raise DriverError(f"{what}: garbled reply from the mount: {exc}", ERR_MOUNT_PROTOCOL) from exc
+    except LinkError as exc:
+        raise DriverError(f"{what}: mount link problem: {exc}", ERR_LINK) from exc
+
+
+# ================================================================================================
+# The actions: read (and write) handlers
+# ================================================================================================
+
+
+def _read_buzzer(telescope: Telescope) -> Reply:
+    level = _settings(telescope).buzzer
+    return {"volume": level, "name": BUZZER_LEVELS[level] if level in (0, 1, 2) else None}
+
+
+def _write_buzzer(telescope: Telescope, changes: Reply) -> None:
+    telescope.mount.set_buzzer(changes["volume"])
+
+
+def _read_heavy_duty(telescope: Telescope) -> Reply:
+    on = _settings(telescope).heavy_duty
+    return {"enabled": on, "max_speed": None if on is None else (720 if on else 1440)}
+
+
+def _write_heavy_duty(telescope: Telescope, changes: Reply) -> None:
+    telescope.mount.set_heavy_duty(changes["enabled"])
+
+
+def _read_meridian(telescope: Telescope) -> Reply:
+    _require_meridian_firmware(telescope)
+    meridian = _settings(telescope).meridian
+    limits = telescope.settings.limits
+    mount = None if meridian is None else {"track_past": meridian.track_after,
+                                           "limit_degrees": meridian.limit_degrees, "flip": meridian.flip}
+    return {**(mount or {"track_past": None, "limit_degrees": None, "flip": None}),
+            "configured": {"track_past": limits.meridian_track_past,
+                           "limit_degrees": round(limits.meridian_limit_deg)}}
+
+
+def _write_meridian(telescope: Telescope, changes: Reply) -> None:
+    _require_meridian_firmware(telescope)
+    current = _settings(telescope).meridian or MeridianSettings()
+    wanted = MeridianSettings(flip=current.flip,  # "temporarily not supported" by ZWO: kept as it is
+                              track_after=changes.get("track_past", current.track_after),
+                              limit_degrees=changes.get("limit_degrees", current.limit_degrees))
+    telescope.set_meridian_settings(wanted)  # the Telescope remembers it for DestinationSideOfPier
+    # Mirrored in the configuration, which is pushed to the mount on every connect.
+    _save(telescope, "limits", {"meridian_track_past": wanted.track_after,
+                                "meridian_limit_deg": wanted.limit_degrees})
+
+
+def _read_altitude_limits(telescope: Telescope) -> Reply:
+    settings = _settings(telescope)
+    return {"enabled": settings.limits_enabled, "upper": settings.upper_limit, "lower": settings.lower_limit}
+
+
+def _write_altitude_limits(telescope: Telescope, changes: Reply) -> None:
+    mount = telescope.mount
+    if "upper" in changes:
+        mount.set_upper_limit(changes["upper"])
+    if "lower" in changes:
+        mount.set_lower_limit(changes["lower"])
+    if "enabled" in changes:
+        mount.set_limits_enabled(changes["enabled"])
+
+
+#: Mode asked for with :AA#/:AP# and not yet in effect, per telescope (the mount has no query for it).
+_requested_modes: weakref.WeakKeyDictionary[Telescope, MountMode] = weakref.WeakKeyDictionary()
+
+
+def _current_mode(telescope: Telescope) -> MountMode:
+    status = telescope.mount.state.status
+    return status.mode if status is not None else MountMode.UNKNOWN
+
+
+def _read_mode(telescope: Telescope) -> Reply:
+    current = _current_mode(telescope)
+    requested = _requested_modes.get(telescope, current)
+    if requested is current:
+        _requested_modes.pop(telescope, None)  # in effect now (the mount was restarted) or never changed
+    reply: Reply = {"mode": MODE_NAMES[current], "requested": MODE_NAMES[requested],
+                    "restart_required": requested is not current}
+    if requested is not current:
+        reply["message"] = RESTART_MESSAGE.format(current=MODE_NAMES[current])
+    return reply
+
+
+def _write_mode(telescope: Telescope, changes: Reply) -> None:
+    wanted = MountMode.EQUATORIAL if changes["mode"] == "equatorial" else MountMode.ALTAZ
+    telescope.mount.set_mode(wanted is MountMode.EQUATORIAL)
+    _requested_modes[telescope] = wanted
+
+
+def _read_info(telescope: Telescope) -> Reply:
+    mount = telescope.mount
+    info = mount.state.info
+    raw = mount.raw(":GU#")  # fresh, exactly as the mount prints it
+    status = parse_status(raw[:-1] if raw.endswith("#") else raw)
+    link = mount.link.status
+    return {
+        "model": info.model if info else None,
+        "firmware": info.firmware if info else None,
+        "link": link.url,
+        "link_state": link.state.value,
+        "mode": MODE_NAMES[status.mode],
+        "at_home": status.at_home,
+        "status": {
+            "raw": raw, "tracking": status.tracking, "slewing": status.slewing,
+            "low_voltage": status.low_voltage, "at_home": status.at_home, "homing": status.homing,
+            "mode": MODE_NAMES[status.mode], "ra_stall": status.ra_stall, "dec_stall": status.dec_stall,
+            "st4_guiding_ra": status.st4_ra, "st4_guiding_dec": status.st4_dec, "parked": status.parked,
+            "other_flags": status.other_flags, "digits": status.digits,
+        },
+    }
+
+
+def _read_horizon(telescope: Telescope) -> Reply:
+    limits = telescope.settings.limits
+    return {"min_altitude_deg": limits.min_altitude_deg, "horizon": [list(p) for p in limits.horizon]}
+
+
+def _write_horizon(telescope: Telescope, changes: Reply) -> None:
+    _save(telescope, "limits", changes)
+
+
+# ================================================================================================
+# The table
+# ================================================================================================
+
+
+@dataclass(frozen=True)
+class ZwoAction:
+    """One action: how to read its state and, if writable, which keys it takes and how to apply them."""
+
+    name: str
+    summary: str
+    read: Callable[[Telescope], Reply]
+    fields: Mapping[str, Field] = field(default_factory=dict)
+    write: Callable[[Telescope, Reply], None] | None = None
+    example: str = "{}"  # a write example for the documentation
+
+
+ACTIONS: tuple[ZwoAction, ...] = (
+    ZwoAction("zwo:BuzzerVolume", "The mount's buzzer volume (:GBu#/:SBu).", _read_buzzer,
+              {"volume": Field(_integer(0, 2), "0 off, 1 low, 2 high")}, _write_buzzer, '{"volume": 1}'),
+    ZwoAction("zwo:HeavyDutyMode", "Heavy-duty mode: top speed 720x instead of 1440x (:GRl#/:SRl).",
+              _read_heavy_duty, {"enabled": Field(_boolean, "true or false")}, _write_heavy_duty,
+              '{"enabled": true}'),
+    ZwoAction("zwo:MeridianSettings", "Meridian behaviour stored in the mount (:GTa#/:STa, firmware >= 1.2.4); "
+              "writes are also saved in the configuration, which is pushed to the mount on every connect.",
+              _read_meridian,
+              {"track_past": Field(_boolean, "keep tracking past the meridian up to the limit"),
+               "limit_degrees": Field(_integer(-15, 15), "-15..15; negative stops before the meridian")},
+              _write_meridian, '{"track_past": true, "limit_degrees": 10}'),
+    ZwoAction("zwo:AltitudeLimits", "The mount's own altitude limits (:GLC#/:GLH#/:GLL#, :SLE#/:SLD#/:SLH/:SLL).",
+              _read_altitude_limits,
+              {"enabled": Field(_boolean, "limits on or off"), "upper": Field(_integer(60, 90), "60..90 degrees"),
+               "lower": Field(_integer(0, 30), "0..30 degrees")},
+              _write_altitude_limits, '{"enabled": true, "upper": 85, "lower": 10}'),
+    ZwoAction("zwo:MountMode", "Equatorial or alt-az mode (:AP#/:AA#); a switch takes effect only after the "
+              "mount is restarted, which the reply says.", _read_mode,
+              {"mode": Field(_choice("equatorial", "altaz"), '"equatorial" or "altaz"')}, _write_mode,
+              '{"mode": "altaz"}'),
+    ZwoAction("zwo:MountInfo", "Model, firmware, serial link, mode, home flag and the decoded :GU# flags "
+              "(read-only).", _read_info),
+    ZwoAction("zwo:Horizon", "The server's own pointing floor: minimum altitude and horizon profile "
+              "(configuration, saved to the config file).", _read_horizon,
+              {"min_altitude_deg": Field(_number(-10.0, 60.0), "-10..60 degrees"),
+               "horizon": Field(_points, "[[azimuth, altitude], ...] in degrees, [] for none")},
+              _write_horizon, '{"min_altitude_deg": 5, "horizon": [[0, 10], [90, 20], [180, 15]]}'),
+)
+
+_BY_NAME: dict[str, ZwoAction] = {action.name.lower(): action for action in ACTIONS}
 
 
 def supported_actions() -> list[str]:
-    """The action names SupportedActions lists."""
-    return []
+    """The action names SupportedActions lists, exactly as documented."""
+    return [action.name for action in ACTIONS]
+
+
+def _changes(action: ZwoAction, parameters: str) -> Reply:
+    """The checked keys to write; empty means read. Raises InvalidValue before anything is sent."""
+    text = (parameters or "").strip()
+    if not text:
+        return {}
+    try:
+        given = json.loads(text)
+    except ValueError as exc:
+        raise InvalidValue(f"{action.name}: Parameters must be a JSON object such as {action.example}, "
+                           f"or empty to read ({exc})") from None
+    if not isinstance(given, dict):
+        raise InvalidValue(f"{action.name}: Parameters must be a JSON object such as {action.example}, "
+                           f"not {json.dumps(given)[:60]}")
+    if given and action.write is None:
+        raise InvalidValue(f"{action.name} is read-only: call it with empty Parameters")
+    unknown = sorted(set(given) - set(action.fields))
+    if unknown:
+        raise InvalidValue(f"{action.name}: unknown key(s) {', '.join(unknown)}; it takes "
+                           f"{', '.join(action.fields)}")
+    changes = {}
+    for key, value in given.items():
+        try:
+            changes[key] = action.fields[key].check(value)
+        except ValueError as exc:
+            raise InvalidValue(f"{action.name}: {key} {exc}") from None
+    return changes
 
 
 def run_action(telescope: Telescope, name: str, parameters: str) -> str:
-    """Run one action by name (case-insensitive) and return its JSON reply."""
-    raise ActionNotImplemented(f"action {name!r} is not supported")
+    """Run one action by name (case-insensitive): write the given keys, then return the state as JSON."""
+    action = _BY_NAME.get(name.strip().lower())
+    if action is None:
+        raise ActionNotImplemented(f"action {name!r} is not supported; SupportedActions lists "
+                                   f"{', '.join(supported_actions())}")
+    # As every other member: connected while any client holds the device and the mount link runs.
+    if not telescope.connected_clients() or not telescope.mount.running:
+        raise NotConnected(f"{action.name} needs the telescope connected: set Connected=true or call Connect")
+    changes = _changes(action, parameters)
+    with _mount_errors(action.name):
+        if changes and action.write is not None:
+            action.write(telescope, changes)
+        reply = action.read(telescope)
+    return json.dumps(reply, allow_nan=False)
