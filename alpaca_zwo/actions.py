@@ -128,18 +128,21 @@ def _require_meridian_firmware(telescope: Telescope) -> None:
                                    "(:GTa#/:STa) need firmware 1.2.4 or later")
 
 
-def _save(telescope: Telescope, section: str, values: Mapping[str, object]) -> Settings:
-    """Persist configuration values through the settings store, as the setup page does."""
+def _save(telescope: Telescope, action: str, section: str, values: Mapping[str, object]) -> Settings:
+    """Persist configuration values through the settings store, as the setup page does.
+
+    The store validates before it writes, so a refused value leaves both file and memory as they were.
+    """
 
     def change(current: Settings) -> Settings:
         data = settings_to_dict(current)
         data[section] = {**data[section], **values}
-        return settings_from_dict(data, "Action")
+        return settings_from_dict(data, action)  # errors read "zwo:Horizon: limits.horizon: ..."
 
     try:
         return telescope.store.update(change)
     except ConfigError as exc:
-        raise InvalidValue(f"invalid setting: {exc}") from None
+        raise InvalidValue(str(exc)) from None
 
 
 @contextmanager
@@ -197,7 +200,7 @@ def _write_meridian(telescope: Telescope, changes: Reply) -> None:
                               limit_degrees=changes.get("limit_degrees", current.limit_degrees))
     telescope.set_meridian_settings(wanted)  # the Telescope remembers it for DestinationSideOfPier
     # Mirrored in the configuration, which is pushed to the mount on every connect.
-    _save(telescope, "limits", {"meridian_track_past": wanted.track_after,
+    _save(telescope, "zwo:MeridianSettings", "limits", {"meridian_track_past": wanted.track_after,
                                 "meridian_limit_deg": wanted.limit_degrees})
 
 
@@ -272,7 +275,7 @@ def _read_horizon(telescope: Telescope) -> Reply:
 
 
 def _write_horizon(telescope: Telescope, changes: Reply) -> None:
-    _save(telescope, "limits", changes)
+    _save(telescope, "zwo:Horizon", "limits", changes)
 
 
 # ================================================================================================
