@@ -122,7 +122,10 @@ def test_supported_actions_needs_no_connection(server_factory: ServerFactory) ->
 def test_buzzer_volume(rig: Rig) -> None:
     rig.model.set_buzzer(0)
     assert rig.action("zwo:BuzzerVolume") == {"volume": 0, "name": "off"}
+    start = rig.trace_length()
     assert rig.action("zwo:BuzzerVolume", {"volume": 2}) == {"volume": 2, "name": "high"}
+    sent = rig.sent_since(start)  # also shows the trace filter of the bad-parameter test sees real commands
+    assert ":SBu2#" in sent and ":GBu#" in sent[sent.index(":SBu2#"):], sent  # written, then read back
     assert rig.model.buzzer() == 2
     assert rig.action("zwo:BuzzerVolume", {"volume": 1})["name"] == "low" and rig.model.buzzer() == 1
 
