@@ -1,0 +1,201 @@
+"""Stellarium's telescope protocol served by alpaca-zwo, driven by a client written from the protocol.
+
+Everything runs over loopback against the real server on the real emulator in real time; what
+the mount does is checked through Alpaca, conversions against ERFA by a different route.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from alpaca_zwo.bridges.stellarium import BRIDGE_CLIENT
+from tests.bridges.stellarium_client import Position, StellariumClient
+from tests.bridges.stellarium_rig import (
+    Rig,
+    rate_hz,
+    reference_to_apparent,
+    reference_to_j2000,
+    running_server,
+    separation_arcsec,
+    wait_until,
+)
+
+pytestmark = pytest.mark.timeout(300)
+
+RESOLUTION_ARCSEC = 360.0 * 3600.0 / 2**32  # one unit of the 32-bit RA encoding (0.0003")
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Rig]:
+    """J2000 server with one Alpaca client connected, tracking, pointed 1 h west of the meridian at Dec +40."""
+    with running_server(tmp_path_factory.mktemp("stellarium")) as rig:
+        rig.point_high()
+        yield rig
+
+
+@pytest.fixture
+def client(rig: Rig) -> Iterator[StellariumClient]:
+    c = StellariumClient(rig.stellarium_port)
+    yield c
+    c.close()
+
+
+def _stream(client: StellariumClient, seconds: float) -> list[Position]:
+    end = time.monotonic() + seconds
+    positions = [client.read_position()]
+    while time.monotonic() < end:
+        positions.append(client.read_position())
+    return positions
+
+
+def test_position_stream_is_2hz_or_faster_and_well_formed(client: StellariumClient) -> None:
+    positions = _stream(client, 4.0)
+    arrivals = [p.received for p in positions[1:]]  # the first one is sent on connect
+    assert rate_hz(arrivals) >= 2.0, f"{rate_hz(arrivals):.2f} Hz"
+    assert max(b - a for a, b in itertools.pairwise(arrivals)) < 1.0  # no stall (sent every 0.25 s)
+    for p in positions:
+        assert (p.length, p.kind, p.status) == (24, 0, 0)
+        # TIME is when the position was true, on Stellarium's (wall) clock, in microseconds
+        assert abs(p.server_time_us / 1e6 - time.time()) < 10.0
+    server_times = [p.server_time_us for p in positions]
+    assert server_times == sorted(server_times)
+
+
+def test_j2000_positions_agree_with_alpaca_converted_by_erfa(rig: Rig, client: StellariumClient) -> None:
+    for _ in range(5):
+        ra, dec, when = rig.alpaca.radec_and_time()
+        sent = client.latest_position()
+        expected = reference_to_j2000(ra, dec, when)
+        error = separation_arcsec(sent.ra_hours, sent.dec_degrees, *expected)
+        assert error <= 0.1, f"J2000 {sent.ra_hours:.7f} h {sent.dec_degrees:+.6f} vs ERFA {expected}: {error:.3f}\""
+        # and the conversion is not a no-op: J2000 differs from the mount's coordinates of date
+        assert separation_arcsec(sent.ra_hours, sent.dec_degrees, ra, dec) > 60.0
+
+
+def test_jnow_mode_sends_the_mount_coordinates(tmp_path: Path) -> None:
+    with running_server(tmp_path, equinox="JNow") as rig:
+        client = StellariumClient(rig.stellarium_port)
+        try:
+            for _ in range(3):
+                ra, dec, _when = rig.alpaca.radec_and_time()
+                sent = client.latest_position()
+                error = separation_arcsec(sent.ra_hours, sent.dec_degrees, ra, dec)
+                assert error <= 0.1, f"JNow {sent.ra_hours} {sent.dec_degrees} vs Alpaca {ra} {dec}: {error:.3f}\""
+            assert rig.server.stellarium.status()["equinox"] == "JNow"
+        finally:
+            client.close()
+
+
+def test_goto_slews_the_mount_to_the_j2000_target(rig: Rig, client: StellariumClient,
+                                                  caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO, logger="alpaca_zwo.bridges.stellarium")
+    lst = float(rig.alpaca.get("siderealtime"))
+    target = ((lst + 0.5) % 24.0, 25.0)  # J2000, just east of the meridian
+    client.goto(*target)
+    wait_until(lambda: rig.alpaca.get("slewing"), 10.0, "the mount to start slewing")
+    rig.alpaca.wait_slew_done()
+    _, _, when = rig.alpaca.radec_and_time()
+    expected = reference_to_apparent(*target, when)
+    # The target the Telescope was given is the J2000 target of date, exactly (0.1").
+    aimed = float(rig.alpaca.get("targetrightascension")), float(rig.alpaca.get("targetdeclination"))
+    assert separation_arcsec(*aimed, *expected) <= 0.1
+    ra, dec, _ = rig.alpaca.radec_and_time()
+    assert separation_arcsec(ra, dec, *expected) <= 5.0, "the mount is not on the target"
+    sent = client.latest_position()
+    assert separation_arcsec(sent.ra_hours, sent.dec_degrees, *target) <= 5.0
+    status = rig.server.stellarium.status()
+    assert status["last_command"]["result"] == "slewing"
+    assert abs(status["last_command"]["ra_hours"] - target[0]) * 54000 < 0.01
+    assert any("goto from" in r.getMessage() for r in caplog.records if r.levelno == logging.INFO)
+
+
+def test_goto_below_the_horizon_is_refused_and_the_connection_stays(rig: Rig, client: StellariumClient) -> None:
+    before = rig.alpaca.radec_and_time()
+    lst = float(rig.alpaca.get("siderealtime"))
+    client.goto((lst + 12.0) % 24.0, -60.0)  # under the pole, far below the horizon at 51 N
+    wait_until(lambda: "below the horizon" in str(rig.server.stellarium.status()["last_error"]), 10.0,
+               "the refusal to be recorded")
+    assert rig.server.stellarium.status()["last_command"]["result"].startswith("refused")
+    assert not rig.alpaca.get("slewing")
+    after = rig.alpaca.radec_and_time()
+    assert separation_arcsec(*before[:2], *after[:2]) < 1.0
+    client.read_position()
+    client.latest_position()  # still streaming on the same connection
+
+
+def test_goto_while_parked_is_refused_and_the_connection_stays(rig: Rig, client: StellariumClient) -> None:
+    rig.alpaca.put("park")
+    rig.alpaca.wait_slew_done()
+    wait_until(lambda: rig.alpaca.get("atpark"), 60.0, "AtPark")
+    try:
+        lst = float(rig.alpaca.get("siderealtime"))
+        client.goto(lst, 30.0)
+        wait_until(lambda: "parked" in str(rig.server.stellarium.status()["last_error"]), 10.0,
+                   "the parked refusal to be recorded")
+        assert not rig.alpaca.get("slewing")
+        assert rig.alpaca.get("atpark")
+        client.latest_position()
+    finally:
+        rig.alpaca.put("unpark")
+        rig.alpaca.put("tracking", Tracking=True)
+    rig.point_high()
+
+
+def test_several_stellariums_at_once(rig: Rig) -> None:
+    clients = [StellariumClient(rig.stellarium_port) for _ in range(5)]
+    try:
+        wait_until(lambda: len(rig.server.stellarium.status()["clients"]) == 5, 5.0, "5 connected programs")
+        streams = [_stream(c, 2.5) for c in clients]
+        for stream in streams:
+            assert rate_hz([p.received for p in stream[1:]]) >= 2.0
+        # every client gets the same broadcast: the last server times line up
+        last_times = {c.latest_position().server_time_us for c in clients}
+        assert len(last_times) <= 2  # a broadcast tick may fall between two reads
+        addresses = {c["address"] for c in rig.server.stellarium.status()["clients"]}
+        assert addresses == {f"127.0.0.1:{c.sock.getsockname()[1]}" for c in clients}
+    finally:
+        for c in clients:
+            c.close()
+    wait_until(lambda: not rig.server.stellarium.status()["clients"], 5.0, "the programs to be gone")
+
+
+def test_bridge_holds_the_telescope_connected_while_stellarium_is(tmp_path: Path) -> None:
+    with running_server(tmp_path, connect_alpaca=False) as rig:
+        telescope = rig.server.telescopes[0]
+        assert BRIDGE_CLIENT not in telescope.connected_clients()
+        first, second = StellariumClient(rig.stellarium_port), StellariumClient(rig.stellarium_port)
+        # With no Alpaca client at all, Stellarium alone connects the mount and gets positions.
+        wait_until(lambda: BRIDGE_CLIENT in telescope.connected_clients(), 20.0, "the bridge to connect the mount")
+        assert first.read_position(timeout=10.0).status == 0
+        first.close()
+        second.latest_position()
+        assert BRIDGE_CLIENT in telescope.connected_clients(), "released while a Stellarium is still connected"
+        second.close()
+        wait_until(lambda: BRIDGE_CLIENT not in telescope.connected_clients(), 5.0, "the bridge to let go")
+        status = rig.server.stellarium.status()
+        assert status["clients"] == [] and status["enabled"] and status["port"] == rig.stellarium_port
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_conversions_match_erfa_by_another_route(seed: int) -> None:
+    """The server's J2000 <-> apparent agrees with atco13/atoc13 all over the sky and across years."""
+    import random
+    from datetime import datetime, timedelta, timezone
+
+    from alpaca_zwo.bridges.stellarium import apparent_to_j2000, j2000_to_apparent
+    from tests.bridges.stellarium_rig import SITE
+
+    rng = random.Random(seed)
+    for _ in range(200):
+        when = datetime(2024, 1, 1, tzinfo=timezone.utc) + timedelta(days=rng.uniform(0, 365 * 5))  # to 2028
+        ra, dec = rng.uniform(0, 24), rng.uniform(-89.9, 89.9)
+        assert separation_arcsec(*apparent_to_j2000(ra, dec, when, SITE), *reference_to_j2000(ra, dec, when)) < 0.01
+        assert separation_arcsec(*j2000_to_apparent(ra, dec, when, SITE), *reference_to_apparent(ra, dec, when)) < 0.01
+        back = apparent_to_j2000(*j2000_to_apparent(ra, dec, when, SITE), when, SITE)
+        assert separation_arcsec(*back, ra, dec) < 0.001
