@@ -143,7 +143,7 @@ def server_main(argv: list[str] | None = None) -> int:
                           device_url=args.device, mdns=args.mdns, emulator_speed=args.emulator_speed,
                           emulator_baud=args.emulator_baud, stellarium_port=args.stellarium_port,
                           zwo_port=args.zwo_port)
-    from .setup import setup_routes
+    from .web import setup_routes
 
     server = AlpacaZwoServer(SettingsStore(settings, path), overrides, extra_routes_factory=setup_routes)
     stop = threading.Event()

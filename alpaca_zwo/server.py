@@ -19,6 +19,7 @@ from .alpaca.app import ServerInfo, create_app
 from .alpaca.http import HttpServer
 from .clients import ClientRegistry
 from .config import DeviceSettings, Settings
+from .facade import ServerFacade
 from .link import Link
 from .mount import Mount, utc_now
 from .store import SettingsStore
@@ -79,6 +80,7 @@ class AlpacaZwoServer:
         self.stellarium: Any = None  # bridges.stellarium.StellariumBridge when [stellarium] is on
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
         self._extra_routes_factory = extra_routes_factory
+        self._facade: ServerFacade | None = None
         self._stopped = threading.Event()
 
     @property
@@ -89,6 +91,18 @@ class AlpacaZwoServer:
     def port(self) -> int:
         assert self.http is not None
         return self.http.port
+
+    @property
+    def facade(self) -> ServerFacade:
+        """What the setup page may see and do (``alpaca_zwo.web`` talks to nothing else)."""
+        if self._facade is None:
+            self._facade = ServerFacade(self)
+        return self._facade
+
+    def bridges(self) -> dict[str, Any]:
+        """The running bridges by name, each with a ``status()`` dict the setup page shows."""
+        named = {"stellarium": self.stellarium, "zwo_port": self.zwo_port}
+        return {name: bridge for name, bridge in named.items() if bridge is not None}
 
     def _device_url(self, index: int, device: DeviceSettings) -> str:
         if index == 0 and self.overrides.device_url is not None:

@@ -34,7 +34,7 @@ def server_factory(tmp_path: Path) -> Iterator[ServerFactory]:
 
     def start(settings: Settings | None = None, overrides: Overrides | None = None, *, setup: bool = True,
               config_name: str = "config.toml") -> AlpacaZwoServer:
-        from alpaca_zwo.setup import setup_routes
+        from alpaca_zwo.web import setup_routes
 
         store = SettingsStore(settings or make_settings(), tmp_path / config_name)
         server = AlpacaZwoServer(store, overrides, extra_routes_factory=setup_routes if setup else None)

@@ -21,9 +21,9 @@ import requests
 from alpaca_zwo import sky
 from alpaca_zwo.config import ServerSettings, load_settings
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.setup import CSRF_HEADER, setup_routes, static_dir
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.store import SettingsStore
+from alpaca_zwo.web import CSRF_HEADER, setup_routes, static_dir
 from tests.conftest import make_settings
 
 HEADERS = {CSRF_HEADER: "1", "Content-Type": "application/json"}

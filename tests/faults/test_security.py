@@ -20,7 +20,7 @@ import requests
 
 from alpaca_zwo.config import ServerSettings
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.setup import CSRF_HEADER
+from alpaca_zwo.web import CSRF_HEADER
 from tests.conftest import ServerFactory, make_settings
 from tests.faults.conftest import RigFactory
 from tests.faults.harness import GET_LIMIT_S, AlpacaClient, report

@@ -633,7 +633,7 @@ class LiveServer:
 
 
 def start_live_server(config_path: Path) -> LiveServer:
-    from alpaca_zwo.setup import setup_routes
+    from alpaca_zwo.web import setup_routes
 
     store = SettingsStore(fuzz_settings(), config_path)
     server = AlpacaZwoServer(store, extra_routes_factory=setup_routes)

@@ -1,0 +1,348 @@
+"""The narrow face the web page sees: exactly the read-outs and operations the setup page needs.
+
+The page (``alpaca_zwo/web``) lives beside the Alpaca API, not above the mount: it must never
+reach into ``mount.link`` or the settings store on its own, or every refactoring of the lower
+layers would break it silently. Everything it may read or do is a method here, so this module is
+the one place that knows how the server, the telescopes, their mounts and links hang together.
+
+Reads are snapshots only (the mount poller's state, the link's counters, the client registry):
+nothing here waits for the serial line except the explicit mount-settings read and the controls.
+The controls go through the same :class:`~alpaca_zwo.telescope.Telescope` methods the Alpaca API
+uses, so the safety rules hold for both.
+
+The names the page needs from lower layers (value types, sky geometry, errors) are re-exported
+here, so ``alpaca_zwo.web`` imports this module and nothing else of the server's.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+from . import __version__
+from ._exceptions import AlpacaError, ConfigError, InvalidValue, LinkError, MountReplyError, ProtocolError
+from .clients import ClientActivity, ClientKey, current_client
+from .config import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
+from .link import LinkCounters, LinkStatus, TraceEntry
+from .mount import MountSettings, MountState
+from .protocol import MeridianSettings
+from .sky import (
+    SIDEREAL_DEG_S,
+    SOLAR_SECONDS_PER_SIDEREAL_SECOND,
+    equatorial_to_horizontal,
+    hour_angle,
+    local_sidereal_time,
+)
+
+if TYPE_CHECKING:
+    from .server import AlpacaZwoServer
+    from .telescope import Telescope
+
+log = logging.getLogger(__name__)
+
+
+class FacadeProvider(Protocol):
+    """What ``setup_routes`` is given: anything that can hand out the server's facade."""
+
+    @property
+    def facade(self) -> ServerFacade: ...
+
+
+class StatusSource(Protocol):
+    """A bridge (Stellarium server, shared ZWO port) as the page sees it: one ``status()`` dict.
+
+    The page shows the keys ``enabled``, ``port``, ``clients`` (a list or a count),
+    ``last_command`` and ``last_error`` (a string or a dict with ``time``/``message``/``command``)
+    when present; any others are ignored.
+    """
+
+    def status(self) -> dict[str, Any]: ...
+
+
+@dataclass(frozen=True)
+class LinkView:
+    """The serial link as the page shows it: its state and its traffic counters."""
+
+    status: LinkStatus
+    counters: LinkCounters
+    poll_error: str
+
+
+@dataclass(frozen=True)
+class MotionView:
+    """The Telescope's own answers for the page; ``None``/``False`` where it refuses (not connected)."""
+
+    slewing: bool = False
+    at_park: bool = False
+    at_home: bool = False
+    guiding: bool = False
+    tracking_rate: int | None = None
+    side_of_pier: int | None = None
+
+
+def _quiet(getter: Callable[[], Any], default: Any) -> Any:
+    """A Telescope property for display: its ASCOM refusal (not connected, no position yet) shows as blank."""
+    try:
+        return getter()
+    except AlpacaError:
+        return default
+
+
+class DeviceFacade:
+    """One telescope as the page sees it: its snapshots, its mount's own settings and its controls."""
+
+    def __init__(self, index: int, telescope: Telescope, server: AlpacaZwoServer) -> None:
+        self.index = index
+        self._telescope = telescope
+        self._server = server
+        # The last settings read from the mount: shown (and used for the flip countdown) while it is away.
+        self._mount_settings: MountSettings | None = None
+
+    # -- identity and snapshots ------------------------------------------------------------------
+
+    @property
+    def name(self) -> str:
+        return self._telescope.device_name
+
+    @property
+    def unique_id(self) -> str:
+        return self._telescope.unique_id
+
+    @property
+    def url(self) -> str:
+        return self._server.settings.devices[self.index].url
+
+    @property
+    def running(self) -> bool:
+        """The mount is connected (some client holds the device connected)."""
+        return self._telescope.mount.running
+
+    @property
+    def state(self) -> MountState:
+        return self._telescope.mount.state
+
+    def mount_now(self) -> float:
+        """Now on the mount's monotonic clock, the one its snapshot times are on (the emulator's, when fast)."""
+        return self._telescope.mount.monotonic()
+
+    def utc_now(self) -> datetime:
+        return self._telescope.utc_now()
+
+    def connected_clients(self) -> frozenset[ClientKey]:
+        return self._telescope.connected_clients()
+
+    def motion(self) -> MotionView:
+        """What Alpaca clients would read now; all blank while the mount is not connected."""
+        if not self.running:
+            return MotionView()
+        t = self._telescope
+        return MotionView(
+            slewing=_quiet(t.slewing, False), at_park=_quiet(t.at_park, False), at_home=_quiet(t.at_home, False),
+            guiding=_quiet(t.is_pulse_guiding, False), tracking_rate=_quiet(t.tracking_rate, None),
+            side_of_pier=_quiet(t.side_of_pier, None))
+
+    def target(self) -> tuple[float, float] | None:
+        """The slew target (RA hours, Dec degrees), or None when none is set."""
+        try:
+            return self._telescope.target_right_ascension(), self._telescope.target_declination()
+        except AlpacaError:
+            return None
+
+    def link(self) -> LinkView:
+        mount = self._telescope.mount
+        state = mount.state
+        return LinkView(state.link or mount.link.status, mount.link.counters, state.poll_error)
+
+    def trace(self) -> list[TraceEntry]:
+        """The recent serial exchanges, oldest first."""
+        return self._telescope.mount.link.trace()
+
+    @property
+    def park_settings(self) -> ParkSettings:
+        return self._telescope.settings.park
+
+    # -- the mount's own settings ------------------------------------------------------------------
+
+    @property
+    def cached_mount_settings(self) -> MountSettings | None:
+        return self._mount_settings
+
+    def read_mount_settings(self) -> MountSettings | None:
+        """The settings stored in the mount, read now (a few short queries).
+
+        Without a link the last ones read are returned (None if never read); the status poll never
+        calls this, only the settings view does.
+        """
+        mount = self._telescope.mount
+        if not mount.running or not mount.link.status.connected:
+            return self._mount_settings
+        self._mount_settings = mount.read_settings()
+        return self._mount_settings
+
+    def apply_mount_setting(self, name: str, value: Any) -> None:
+        """Write one mount-held setting: meridian, upper_limit, lower_limit, limits_enabled, heavy_duty, buzzer."""
+        mount = self._telescope.mount
+        setters: dict[str, Callable[[Any], None]] = {
+            "meridian": self._telescope.set_meridian_settings, "upper_limit": mount.set_upper_limit,
+            "lower_limit": mount.set_lower_limit, "limits_enabled": mount.set_limits_enabled,
+            "heavy_duty": mount.set_heavy_duty, "buzzer": mount.set_buzzer}
+        setters[name](value)
+        log.info("setup page: mount %s set to %s", name.replace("_", " "), value)
+
+    def set_site(self, values: Mapping[str, float]) -> None:
+        """Through the Telescope, so the mount gets the new site at once and clients read the same values."""
+        t = self._telescope
+        setters: dict[str, Callable[[float], None]] = {
+            "latitude": t.set_site_latitude, "longitude": t.set_site_longitude, "elevation": t.set_site_elevation}
+        for key, value in values.items():
+            setters[key](value)
+
+    # -- controls (run with the caller's client key set in ``current_client``) --------------------
+
+    def set_connected(self, on: bool) -> None:
+        self._telescope.set_connected(on)
+
+    def abort(self) -> None:
+        """Stop means stop: also when parked (AbortSlew refuses then), send the mount's stop-all."""
+        try:
+            self._telescope.abort_slew()
+        except AlpacaError:
+            if not self.running:
+                raise
+            self._telescope.mount.stop()
+
+    def move_axis(self, axis: int, rate_deg_s: float) -> None:
+        self._telescope.move_axis(axis, rate_deg_s)
+
+    def park(self) -> None:
+        self._telescope.park()
+
+    def unpark(self) -> None:
+        self._telescope.unpark()
+
+    def find_home(self) -> None:
+        self._telescope.find_home()
+
+    def set_park(self) -> ParkSettings:
+        self._telescope.set_park()
+        return self._telescope.settings.park
+
+    def set_tracking(self, on: bool) -> None:
+        self._telescope.set_tracking(on)
+
+    def set_tracking_rate(self, rate: int) -> None:
+        self._telescope.set_tracking_rate(rate)
+
+    def set_guide_rate(self, fraction: float) -> None:
+        """The guide rate as a fraction of sidereal (both axes share it on a ZWO mount)."""
+        self._telescope.set_guide_rate_right_ascension(fraction * SIDEREAL_DEG_S)
+
+    def set_utc(self, value: datetime) -> datetime:
+        self._telescope.set_utc_date(value)
+        return self._telescope.utc_now()
+
+
+class ServerFacade:
+    """The whole server as the page sees it: settings, devices, clients, bridges."""
+
+    def __init__(self, server: AlpacaZwoServer) -> None:
+        self._server = server
+        self._devices: dict[int, DeviceFacade] = {}
+        self._lock = threading.Lock()
+
+    @property
+    def settings(self) -> Settings:
+        return self._server.settings
+
+    @property
+    def device_count(self) -> int:
+        return len(self._server.telescopes)
+
+    def device(self, index: int) -> DeviceFacade:
+        with self._lock:
+            found = self._devices.get(index)
+            if found is None:
+                found = self._devices[index] = DeviceFacade(index, self._server.telescopes[index], self._server)
+            return found
+
+    def devices(self) -> list[DeviceFacade]:
+        return [self.device(i) for i in range(self.device_count)]
+
+    def update_settings(self, change: Callable[[Settings], Settings]) -> None:
+        """Change the settings file atomically (validated by ``settings_from_dict`` inside ``change``)."""
+        self._server.store.update(change)
+
+    @property
+    def config_file(self) -> Path | None:
+        return self._server.store.path
+
+    @property
+    def port(self) -> int:
+        return self._server.port
+
+    @property
+    def discovery_port(self) -> int | None:
+        discovery = self._server.discovery
+        return discovery.port if discovery is not None else None
+
+    @property
+    def version(self) -> str:
+        return __version__
+
+    def touch_client(self, key: ClientKey, user_agent: str) -> None:
+        """Record a client's activity (the MoveAxis watchdog stops a jog once its client goes quiet)."""
+        self._server.registry.touch(key, user_agent)
+
+    def client_activity(self, window_s: float, now: float | None = None) -> list[ClientActivity]:
+        return self._server.registry.snapshot(active_within=window_s, now=time.monotonic() if now is None else now)
+
+    def bridges(self) -> list[dict[str, Any]]:
+        """One status dict per running bridge, each with its ``name``; a failing status() shows its error."""
+        provider = getattr(self._server, "bridges", None)
+        found: Mapping[str, StatusSource] = provider() if callable(provider) else {}
+        rows = []
+        for name, bridge in found.items():
+            try:
+                status = dict(bridge.status())
+            except Exception as exc:  # a bridge's bug must not take the status feed down with it
+                log.exception("bridge %s: status() failed", name)
+                status = {"enabled": True, "last_error": f"status unavailable: {exc}"}
+            rows.append({"name": name, **status})
+        return rows
+
+
+__all__ = [
+    "SIDEREAL_DEG_S",
+    "SOLAR_SECONDS_PER_SIDEREAL_SECOND",
+    "AlpacaError",
+    "ClientKey",
+    "ConfigError",
+    "DeviceFacade",
+    "FacadeProvider",
+    "InvalidValue",
+    "LinkError",
+    "LinkView",
+    "MeridianSettings",
+    "MotionView",
+    "MountReplyError",
+    "MountSettings",
+    "MountState",
+    "ParkSettings",
+    "ProtocolError",
+    "ServerFacade",
+    "Settings",
+    "StatusSource",
+    "current_client",
+    "equatorial_to_horizontal",
+    "horizon_altitude_at",
+    "hour_angle",
+    "local_sidereal_time",
+    "settings_from_dict",
+    "settings_to_dict",
+]

@@ -1,0 +1,50 @@
+"""The setup and status web page: ``/setup``, the per-device setup URL, its assets and a JSON API.
+
+One module per job: ``files`` (the page and its static files), ``status`` (the status feed),
+``settings`` (the settings API, server settings included), ``commands`` (the controls), ``trace``
+(the serial trace), ``logview`` (the log view), ``http`` (security and JSON plumbing) and
+``context`` (what the routes share). The package talks to the rest of the server only through
+:mod:`alpaca_zwo.facade`.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from ..facade import FacadeProvider
+from .commands import ActionResource
+from .context import WebContext
+from .files import DeviceSetupPage, SetupPage, StaticFiles, static_dir
+from .http import CSRF_HEADER, check_same_origin
+from .logview import LogBuffer, LogResource, LogText, log_buffer
+from .settings import ServerResource, SettingsResource
+from .status import StatusResource
+from .trace import TraceResource, TraceText
+
+log = logging.getLogger(__name__)
+
+
+def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> list[tuple[str, object]]:
+    """The ``(uri_template, resource)`` pairs of the setup page, mounted by the server on its app."""
+    files = StaticFiles(static_root or static_dir())
+    if files.find("index.html") is None:
+        log.error("setup page files not found in %s: /setup will answer 404", files.root)
+    facade = server.facade
+    web = WebContext(facade, log_buffer())
+    return [
+        ("/setup", SetupPage(files)),
+        ("/setup/v1/{device_type}/{device_number}/{page}", DeviceSetupPage(facade, files)),
+        ("/setup/static/{name}", files),
+        ("/setup/api/server", ServerResource(web)),
+        ("/setup/api/log", LogResource(web)),
+        ("/setup/api/log.txt", LogText(web)),
+        ("/setup/api/telescope/{number}/status", StatusResource(web)),
+        ("/setup/api/telescope/{number}/settings", SettingsResource(web)),
+        ("/setup/api/telescope/{number}/action/{name}", ActionResource(web)),
+        ("/setup/api/telescope/{number}/trace", TraceResource(web)),
+        ("/setup/api/telescope/{number}/trace.txt", TraceText(web)),
+    ]
+
+
+__all__ = ["CSRF_HEADER", "LogBuffer", "StaticFiles", "check_same_origin", "log_buffer", "setup_routes", "static_dir"]

@@ -1,0 +1,88 @@
+"""The page's controls: ``POST /setup/api/telescope/{number}/action/{name}``.
+
+Every control goes through the same Telescope operations the Alpaca API uses (via the facade), run
+as the page's own client, so the safety rules (limits, park state, MoveAxis watchdog) hold for both.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+from collections.abc import Callable
+from datetime import datetime
+from typing import Any
+
+import falcon
+
+from ..facade import DeviceFacade, current_client
+from .context import Resource
+from .http import ApiError, api_errors, check_same_origin, flag, integer, iso, number, send
+
+log = logging.getLogger(__name__)
+
+Action = Callable[[DeviceFacade, dict[str, Any]], "dict[str, Any] | None"]
+
+
+def _move(d: DeviceFacade, body: dict[str, Any]) -> None:
+    axis = integer(body, "axis", 0, 1)
+    d.move_axis(axis, number(body, "rate", -10.0, 10.0))
+
+
+def _guide_rate(d: DeviceFacade, body: dict[str, Any]) -> None:
+    d.set_guide_rate(number(body, "rate", 0.1, 0.9))
+
+
+def _set_time(d: DeviceFacade, body: dict[str, Any]) -> dict[str, Any]:
+    raw = body.get("utc")
+    if not isinstance(raw, str):
+        raise ApiError(400, "utc must be an ISO 8601 date and time, e.g. 2025-01-31T21:05:00.000Z")
+    try:
+        value = datetime.fromisoformat(raw.strip().replace("z", "Z").replace("Z", "+00:00"))
+    except ValueError:
+        raise ApiError(400, f"utc {raw!r} is not an ISO 8601 date and time") from None
+    if value.tzinfo is None:
+        raise ApiError(400, "utc must say its zone (end it with Z)")
+    return {"utc": iso(d.set_utc(value))}
+
+
+def _set_park(d: DeviceFacade, body: dict[str, Any]) -> dict[str, Any]:
+    return {"park": dataclasses.asdict(d.set_park())}
+
+
+ACTIONS: dict[str, Action] = {
+    "connect": lambda d, body: d.set_connected(True),
+    "disconnect": lambda d, body: d.set_connected(False),
+    "abort": lambda d, body: d.abort(),
+    "move": _move,
+    "park": lambda d, body: d.park(),
+    "unpark": lambda d, body: d.unpark(),
+    "find_home": lambda d, body: d.find_home(),
+    "set_park": _set_park,
+    "tracking": lambda d, body: d.set_tracking(flag(body, "on")),
+    "tracking_rate": lambda d, body: d.set_tracking_rate(integer(body, "rate", 0, 2)),
+    "guide_rate": _guide_rate,
+    "time": _set_time,
+}
+
+
+class ActionResource(Resource):
+    """Runs one control as the page's client (its own key, so connection and MoveAxis are tracked)."""
+
+    def on_post(self, req: falcon.Request, resp: falcon.Response, number: str, name: str) -> None:
+        check_same_origin(req)
+        with api_errors(resp):
+            body = self.body(req)
+            device = self.web.device(number)
+            handler = ACTIONS.get(name)
+            if handler is None:
+                raise ApiError(404, f"unknown action {name!r}; actions: {', '.join(sorted(ACTIONS))}")
+            key = self.web.touch(req)
+            token = current_client.set(key)
+            try:
+                result = handler(device, body)
+            finally:
+                current_client.reset(token)
+            if name != "move" or body.get("rate"):
+                log.info("setup page (%s): %s %s", req.remote_addr, name, json.dumps(body) if body else "")
+            send(resp, {"ok": True, **(result or {})})

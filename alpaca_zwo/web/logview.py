@@ -1,0 +1,102 @@
+"""The page's log view: a bounded in-memory copy of the ``alpaca_zwo`` log, live and as a download.
+
+Users report problems from the field with no shell at hand; a bounded copy of the log (whatever
+level the server runs at) lets them download it from the page they already have open, without the
+server writing anything it was not configured to write.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import itertools
+import logging
+import threading
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from typing import TYPE_CHECKING
+
+import falcon
+
+from .http import api_errors, query_float, send, text_download
+
+if TYPE_CHECKING:
+    from .context import WebContext
+
+#: How many log records the page can show and download.
+LOG_LINES = 2000
+#: How many records one live-view poll returns at most.
+ENTRIES_PER_POLL = 500
+
+
+@dataclass(frozen=True)
+class LogEntry:
+    seq: int
+    time: float
+    level: str
+    logger: str
+    message: str
+
+
+class LogBuffer(logging.Handler):
+    """The last records of the ``alpaca_zwo`` logger, for the page's log view and download."""
+
+    def __init__(self, capacity: int = LOG_LINES) -> None:
+        super().__init__(logging.NOTSET)
+        self._entries: collections.deque[LogEntry] = collections.deque(maxlen=capacity)
+        self._seq = itertools.count(1)
+        self.setFormatter(logging.Formatter("%(message)s"))
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            message = self.format(record)
+        except Exception:  # a bad format string in some log call must not break the caller
+            message = str(record.msg)
+        self._entries.append(LogEntry(next(self._seq), record.created, record.levelname, record.name, message))
+
+    def entries(self, after: int = 0) -> list[LogEntry]:
+        return [e for e in list(self._entries) if e.seq > after]
+
+    def text(self) -> str:
+        lines = []
+        for e in list(self._entries):
+            stamp = datetime.fromtimestamp(e.time, timezone.utc).strftime("%Y-%m-%d %H:%M:%S.%f")[:-3]
+            lines.append(f"{stamp}Z {e.level:<7} {e.logger}: {e.message}")
+        return "\n".join(lines) + ("\n" if lines else "")
+
+
+_log_buffer: LogBuffer | None = None
+_log_buffer_lock = threading.Lock()
+
+
+def log_buffer() -> LogBuffer:
+    """The process-wide buffer, attached once however many servers a process starts (tests start many)."""
+    global _log_buffer
+    with _log_buffer_lock:
+        if _log_buffer is None:
+            _log_buffer = LogBuffer()
+            logging.getLogger("alpaca_zwo").addHandler(_log_buffer)
+        return _log_buffer
+
+
+class LogResource:
+    """``GET /setup/api/log[?after=SEQ]``: new log lines since the last call, for the live log view."""
+
+    def __init__(self, web: WebContext) -> None:
+        self.web = web
+
+    def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
+        with api_errors(resp):
+            after = int(query_float(req, "after"))
+            entries = self.web.logs.entries(after)[-ENTRIES_PER_POLL:]
+            send(resp, {"entries": [dataclasses.asdict(e) for e in entries]})
+
+
+class LogText:
+    """``GET /setup/api/log.txt``: the buffered log as a file, to attach to a bug report."""
+
+    def __init__(self, web: WebContext) -> None:
+        self.web = web
+
+    def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
+        text_download(resp, self.web.logs.text(), "alpaca-zwo-log")

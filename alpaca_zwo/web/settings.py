@@ -1,0 +1,249 @@
+"""The settings API: ``/setup/api/telescope/{number}/settings`` and ``/setup/api/server``.
+
+A change is a JSON object of groups. Each group has one entry in a table: the file-held groups
+(``site``, ``park``, ``limits``, ``safety``, ``device``) are merged into the settings file, the
+mount-held ones (``meridian``, ``mount_limits``, ``heavy_duty``, ``buzzer``) become checked
+commands for the mount. Everything is checked before anything is applied, so a typo in one field
+never leaves the mount changed and the file not (or the reverse). The mount goes first because it
+is the one that can still refuse; the file is then written in one atomic update.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import falcon
+
+from ..facade import (
+    SIDEREAL_DEG_S,
+    DeviceFacade,
+    MeridianSettings,
+    MountSettings,
+    ServerFacade,
+    Settings,
+    settings_from_dict,
+    settings_to_dict,
+)
+from .context import Resource, WebContext
+from .http import ApiError, api_errors, check_same_origin, flag, integer, number, obj, only_keys, send
+
+log = logging.getLogger(__name__)
+
+#: Manual-move speeds the page offers, as multiples of sidereal (the mount's :R0..:R9 set minus 0.25x).
+JOG_MULTIPLES = (0.5, 1.0, 2.0, 4.0, 8.0, 20.0, 60.0, 720.0, 1440.0)
+#: Groups stored in the settings file.
+FILE_GROUPS = ("site", "park", "limits", "safety", "device")
+#: What each site key may be; checked before anything is saved, so a bad longitude cannot leave a
+#: new latitude half-applied.
+SITE_RANGES = {"latitude": (-90.0, 90.0), "longitude": (-180.0, 180.0), "elevation": (-300.0, 10000.0)}
+SERVER_KEYS = frozenset({"host", "port", "discovery_port", "mdns", "location"})
+
+MountCommand = tuple[str, Any]
+#: A mount-held group's checker: (device, the group's value) -> the commands to send, in order.
+MountGroup = Callable[[DeviceFacade, Any], list[MountCommand]]
+
+
+def _meridian(device: DeviceFacade, raw: Any) -> list[MountCommand]:
+    group = obj(raw, "meridian")
+    cached = device.cached_mount_settings
+    flip = cached.meridian.flip if cached is not None and cached.meridian is not None else False
+    return [("meridian", MeridianSettings(flip=flip, track_after=flag(group, "track_after"),
+                                          limit_degrees=integer(group, "limit_degrees", -15, 15)))]
+
+
+def _mount_limits(device: DeviceFacade, raw: Any) -> list[MountCommand]:
+    group = obj(raw, "mount_limits")
+    only_keys(group, {"enabled", "upper", "lower"}, "mount_limits key(s)")
+    checks: list[tuple[str, str, Callable[[dict[str, Any], str], Any]]] = [
+        ("upper", "upper_limit", lambda g, k: integer(g, k, 60, 90)),
+        ("lower", "lower_limit", lambda g, k: integer(g, k, 0, 30)),
+        ("enabled", "limits_enabled", flag),
+    ]
+    return [(command, check(group, key)) for key, command, check in checks if key in group]
+
+
+def _heavy_duty(device: DeviceFacade, raw: Any) -> list[MountCommand]:
+    return [("heavy_duty", flag({"heavy_duty": raw}, "heavy_duty"))]
+
+
+def _buzzer(device: DeviceFacade, raw: Any) -> list[MountCommand]:
+    return [("buzzer", integer({"buzzer": raw}, "buzzer", 0, 2))]
+
+
+#: The mount-held groups, in the order their commands are sent.
+MOUNT_GROUPS: dict[str, MountGroup] = {
+    "meridian": _meridian,
+    "mount_limits": _mount_limits,
+    "heavy_duty": _heavy_duty,
+    "buzzer": _buzzer,
+}
+
+
+@dataclass
+class SettingsChange:
+    """A checked change, ready to apply: file groups to merge, the device entry, the site, mount commands."""
+
+    file_groups: dict[str, dict[str, Any]] = field(default_factory=dict)
+    device: dict[str, Any] | None = None
+    site: dict[str, float] = field(default_factory=dict)
+    mount: list[MountCommand] = field(default_factory=list)
+
+    @property
+    def touches_file(self) -> bool:
+        return bool(self.file_groups) or self.device is not None
+
+
+def plan_change(device: DeviceFacade, body: dict[str, Any]) -> SettingsChange:
+    """Check every group of ``body``; raise ApiError before anything is applied."""
+    only_keys(body, set(FILE_GROUPS) | set(MOUNT_GROUPS), "settings group(s)")
+    file_groups = {name: obj(body[name], name) for name in FILE_GROUPS if name in body}
+    mount_groups = [name for name in MOUNT_GROUPS if name in body]
+    if mount_groups and not device.running:
+        raise ApiError(409, "these settings are stored in the mount: connect the mount first")
+    commands = [command for name in mount_groups for command in MOUNT_GROUPS[name](device, body[name])]
+    meridian = next((value for name, value in commands if name == "meridian"), None)
+    if isinstance(meridian, MeridianSettings):
+        # Mirrored in the file, so the setting is known (and shown) while the mount is away.
+        file_groups["limits"] = {**file_groups.get("limits", {}), "meridian_limit_deg": meridian.limit_degrees,
+                                 "meridian_track_past": meridian.track_after}
+    site = file_groups.pop("site", {})
+    only_keys(site, set(SITE_RANGES), "site key(s)")
+    entry = file_groups.pop("device", None)
+    if entry is not None and set(entry) - {"name"}:
+        raise ApiError(400, "only the device name can be changed here")
+    return SettingsChange(file_groups, entry, {k: number(site, k, *SITE_RANGES[k]) for k in SITE_RANGES if k in site},
+                          commands)
+
+
+def _merged(change: SettingsChange, index: int) -> Callable[[Settings], Settings]:
+    def merge(current: Settings) -> Settings:
+        data = settings_to_dict(current)
+        for name, group in change.file_groups.items():
+            data[name] = {**data[name], **group}
+        if change.device is not None:
+            data["devices"][index] = {**data["devices"][index], **change.device}
+        return settings_from_dict(data, "setup page")
+
+    return merge
+
+
+def change_settings(web: WebContext, device: DeviceFacade, body: dict[str, Any]) -> MountSettings | None:
+    """Apply the groups present in ``body``, all or nothing as far as validation can tell."""
+    change = plan_change(device, body)
+    merge = _merged(change, device.index)
+    with web.settings_lock:
+        if change.touches_file:
+            try:
+                merge(web.facade.settings)  # dry run: refuse bad values before the mount is touched
+            except (TypeError, ValueError) as exc:
+                raise ApiError(400, f"invalid setting: {exc}") from None
+        for name, value in change.mount:
+            device.apply_mount_setting(name, value)
+        if change.touches_file:
+            web.facade.update_settings(merge)
+        if change.site:
+            device.set_site(change.site)
+    mount_held = any(name in body for name in MOUNT_GROUPS)
+    return device.read_mount_settings() if mount_held else device.cached_mount_settings
+
+
+def settings_view(facade: ServerFacade, device: DeviceFacade, mount: MountSettings | None) -> dict[str, Any]:
+    settings = facade.settings
+    limits = settings.limits
+    return {
+        "device": {"name": device.name, "unique_id": device.unique_id, "url": device.url or "(built-in emulator)"},
+        "connected": device.running,
+        "mount": _mount_view(mount),
+        "site": dataclasses.asdict(settings.site),
+        "park": dataclasses.asdict(settings.park),
+        "limits": {"min_altitude_deg": limits.min_altitude_deg,
+                   "horizon": [list(p) for p in limits.horizon],
+                   "meridian_limit_deg": limits.meridian_limit_deg,
+                   "meridian_track_past": limits.meridian_track_past},
+        "safety": {"moveaxis_watchdog_s": settings.safety.moveaxis_watchdog_s,
+                   "on_shutdown": settings.safety.on_shutdown},
+    }
+
+
+def _mount_view(mount: MountSettings | None) -> dict[str, Any] | None:
+    if mount is None:
+        return None
+    meridian = mount.meridian
+    return {
+        "meridian": dataclasses.asdict(meridian) if meridian is not None else None,
+        "limits_enabled": mount.limits_enabled, "upper_limit": mount.upper_limit,
+        "lower_limit": mount.lower_limit, "heavy_duty": mount.heavy_duty, "buzzer": mount.buzzer,
+        "guide_rate": mount.guide_rate,
+    }
+
+
+class SettingsResource(Resource):
+    """``/setup/api/telescope/{number}/settings``: GET reads (the mount's own settings too), POST changes."""
+
+    def on_get(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
+        with api_errors(resp):
+            device = self.web.device(number)
+            send(resp, settings_view(self.web.facade, device, device.read_mount_settings()))
+
+    def on_post(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
+        check_same_origin(req)
+        with api_errors(resp):
+            body = self.body(req)
+            device = self.web.device(number)
+            self.web.touch(req)
+            mount = change_settings(self.web, device, body)
+            log.info("setup page (%s): settings changed: %s", req.remote_addr, ", ".join(sorted(body)) or "nothing")
+            send(resp, settings_view(self.web.facade, device, mount))
+
+
+# --- the server's own settings -------------------------------------------------------------------
+
+
+def server_view(facade: ServerFacade) -> dict[str, Any]:
+    """Who this server is (and what it will be after a restart)."""
+    net = facade.settings.server
+    return {
+        "name": "alpaca-zwo",
+        "manufacturer": "alpaca-zwo project",
+        "version": facade.version,
+        "location": net.location,
+        "port": facade.port,
+        "discovery_port": facade.discovery_port,
+        "configured": {"host": net.host, "port": net.port, "discovery_port": net.discovery_port,
+                       "mdns": net.mdns},
+        "config_file": str(facade.config_file) if facade.config_file else None,
+        "basic_auth": bool(net.basic_auth_user),
+        "devices": [{"number": d.index, "name": d.name, "unique_id": d.unique_id} for d in facade.devices()],
+        "jog_multiples": list(JOG_MULTIPLES),
+        "sidereal_deg_s": SIDEREAL_DEG_S,
+        "bridges": facade.bridges(),
+    }
+
+
+def change_server(facade: ServerFacade, body: dict[str, Any]) -> None:
+    only_keys(body, SERVER_KEYS, "server setting(s)")
+
+    def change(current: Settings) -> Settings:
+        data = settings_to_dict(current)
+        data["server"] = {**data["server"], **body}
+        return settings_from_dict(data, "setup page")
+
+    facade.update_settings(change)
+    log.info("setup page: server settings changed (%s); they apply after a restart", ", ".join(sorted(body)))
+
+
+class ServerResource(Resource):
+    """``/setup/api/server``: who this server is; POST changes the network settings (applied on restart)."""
+
+    def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
+        send(resp, server_view(self.web.facade))
+
+    def on_post(self, req: falcon.Request, resp: falcon.Response) -> None:
+        check_same_origin(req)
+        with api_errors(resp):
+            change_server(self.web.facade, self.body(req))
+            send(resp, {**server_view(self.web.facade), "restart_required": True})
