@@ -372,6 +372,7 @@
 
     renderControls(s);
     renderClients(s.clients);
+    renderBridges(s.bridges || []);
     drawSky(s);
   }
 
@@ -425,6 +426,46 @@
         const td = document.createElement("td");
         td.textContent = text;
         if (c.setup_page) td.className = "mine";
+        tr.append(td);
+      }
+      body.append(tr);
+    }
+  }
+
+  // A bridge's status() value for a cell: text as is, {time, command|message} as "time command".
+  function brief(value) {
+    if (value === null || value === undefined || value === "") return "\u2013";
+    if (typeof value !== "object") return String(value);
+    const what = value.command || value.message || value.text || value.kind || JSON.stringify(value);
+    return (value.time ? String(value.time).replace(/^.*T/, "").replace(/\.\d+Z?$/, "") + " " : "") + what;
+  }
+
+  function programs(clients) {
+    if (typeof clients === "number") return String(clients);
+    if (!Array.isArray(clients)) return "\u2013";
+    return clients.length ? clients.map((c) => (c && typeof c === "object" ? c.address || JSON.stringify(c) : String(c))).join(", ") : "none";
+  }
+
+  function renderBridges(rows) {
+    const body = $("bridges");
+    body.replaceChildren();
+    if (!rows.length) {
+      const tr = document.createElement("tr");
+      const td = document.createElement("td");
+      td.colSpan = 6;
+      td.className = "muted";
+      td.textContent = "none running (Stellarium and shared ZWO port are set in the config file)";
+      tr.append(td);
+      body.append(tr);
+      return;
+    }
+    for (const b of rows) {
+      const tr = document.createElement("tr");
+      const cells = [b.name, b.enabled === false ? "no" : "yes", b.port === undefined || b.port === null ? "\u2013" : String(b.port),
+        programs(b.clients), brief(b.last_command), brief(b.last_error)];
+      for (const text of cells) {
+        const td = document.createElement("td");
+        td.textContent = text;
         tr.append(td);
       }
       body.append(tr);

@@ -9,6 +9,7 @@ from __future__ import annotations
 import http.client
 import logging
 import math
+import socket
 import time
 from collections.abc import Callable
 from datetime import datetime, timedelta, timezone
@@ -19,7 +20,7 @@ import pytest
 import requests
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import ServerSettings, load_settings
+from alpaca_zwo.config import ServerSettings, StellariumSettings, load_settings
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.store import SettingsStore
@@ -237,6 +238,23 @@ def test_status_before_any_client_connects(client: Client) -> None:
     assert s["slewing"] is False
     assert len(s["sky"]["floor"]) == 120
     assert s["sky"]["latitude"] == pytest.approx(51.4769)
+
+
+def test_status_lists_no_bridges_when_none_runs(client: Client) -> None:
+    assert client.status()["bridges"] == []
+    assert client.http.get(f"{client.base}/setup/api/server", timeout=TIMEOUT).json()["bridges"] == []
+
+
+def test_status_shows_a_running_bridge_and_its_programs(server_factory: Callable[..., AlpacaZwoServer]) -> None:
+    settings = make_settings(stellarium=StellariumSettings(enabled=True, host="127.0.0.1", port=0))
+    server = server_factory(settings)
+    client = Client(f"http://127.0.0.1:{server.port}")
+    (bridge,) = client.status()["bridges"]
+    assert bridge["name"] == "stellarium" and bridge["enabled"] is True and bridge["port"] > 0
+    with socket.create_connection(("127.0.0.1", bridge["port"]), timeout=TIMEOUT):
+        shown = wait_for(lambda: client.status()["bridges"][0]["clients"], what="the Stellarium program listed")
+        assert len(shown) == 1
+    wait_for(lambda: not client.status()["bridges"][0]["clients"], what="the program gone from the list")
 
 
 def test_status_matches_the_alpaca_api(connected: Client) -> None:

@@ -5,6 +5,7 @@ Every wait is an explicit WebDriverWait on a condition with a deadline; nothing 
 
 from __future__ import annotations
 
+import socket
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,7 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.support.ui import WebDriverWait
 
-from alpaca_zwo.config import load_settings
+from alpaca_zwo.config import StellariumSettings, load_settings
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conftest import make_settings
 
@@ -180,4 +181,22 @@ def test_jog_button_moves_while_pressed(browser: WebDriver, server: AlpacaZwoSer
     ActionChains(browser).release(button).perform()
     WebDriverWait(browser, 10).until(lambda d: not alpaca.get("slewing"))
     WebDriverWait(browser, 10).until(lambda d: text(d, "slewing") == "no")
+    assert console_errors(browser) == []
+
+
+def test_bridges_panel_shows_running_bridges(browser: WebDriver,
+                                             server_factory: Callable[..., AlpacaZwoServer]) -> None:
+    bare = server_factory()
+    open_page(browser, bare.port)
+    WebDriverWait(browser, 10).until(lambda d: text(d, "bridges").startswith("none running"))
+
+    settings = make_settings(stellarium=StellariumSettings(enabled=True, host="127.0.0.1", port=0))
+    server = server_factory(settings, config_name="bridges.toml")
+    port = server.stellarium.port
+    with socket.create_connection(("127.0.0.1", port), timeout=TIMEOUT) as program:
+        open_page(browser, server.port)
+        row = f"stellarium yes {port} 127.0.0.1"
+        WebDriverWait(browser, 10).until(lambda d: text(d, "bridges").startswith(row))
+        program.close()
+    WebDriverWait(browser, 10).until(lambda d: text(d, "bridges").startswith(f"stellarium yes {port} none"))
     assert console_errors(browser) == []
