@@ -18,8 +18,11 @@ import json
 import os
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
+import requests
+import yaml
 from hypothesis import HealthCheck, settings
 from schemathesis import Case
 
@@ -29,6 +32,7 @@ from tests.fuzz.alpaca_fuzz import (
     SPEC_SHA256,
     LiveServer,
     Stats,
+    bound_integer_formats,
     check_consistent,
     device_spec,
     exercise,
@@ -36,6 +40,7 @@ from tests.fuzz.alpaca_fuzz import (
     load_management_schema,
     spec_sha256,
     start_live_server,
+    upstream_sha256,
 )
 
 EXAMPLES = int(os.environ.get("ALPACA_FUZZ_EXAMPLES", "25"))
@@ -96,23 +101,76 @@ def test_operations_under_test() -> None:
 
 
 @pytest.mark.parametrize("path", [DEVICE_SPEC, MANAGEMENT_SPEC], ids=lambda p: Path(p).name)
-def test_spec_copies_are_pristine(path: Path) -> None:
-    """The YAML files are the upstream bytes; every correction lives in code, with its reason."""
-    assert spec_sha256(path) == SPEC_SHA256[path.name]
+def test_spec_copies_match_upstream(path: Path) -> None:
+    """The YAML files are the upstream bytes except the one documented edit (SPEC_EDIT)."""
+    assert upstream_sha256(path) == SPEC_SHA256[path.name]
+    if path == DEVICE_SPEC:
+        assert spec_sha256(path) != SPEC_SHA256[path.name]  # the edit is really there...
+        reply = yaml.safe_load(path.read_text(encoding="utf-8"))["components"]["schemas"]["AlpacaResponse"]
+        assert reply["properties"]["ClientTransactionID"]["minimum"] == 0  # ...and is what it says
 
 
 def test_spec_patches_still_needed() -> None:
-    """If upstream fixes a spec problem, the patch stops changing anything and this says so."""
-    import yaml
-
+    """If upstream fixes a spec problem, the correction stops changing anything and this says so."""
     raw = yaml.safe_load(DEVICE_SPEC.read_text(encoding="utf-8"))
     patched = device_spec()
-    response = raw["components"]["schemas"]["AlpacaResponse"]["properties"]["ClientTransactionID"]
-    assert response["minimum"] == 1  # SPEC PROBLEM 2
     assert "maximum" not in raw["components"]["parameters"]["device_number"]["schema"]  # SPEC PROBLEM 1
-    state = raw["components"]["responses"]["DeviceStateResponse"]["content"]["application/json"]["schema"]
-    assert "oneOf" in state["allOf"][1]["properties"]["Value"]["items"]["properties"]["Value"]  # PROBLEM 4
-    put = raw["paths"]["/telescope/{device_number}/slewtocoordinatesasync"]["put"]
-    assert "required" not in put["requestBody"]  # SPEC PROBLEM 5
-    assert raw["components"]["schemas"]["RightAscension"]["maximum"] == 23.9999999999  # SPEC PROBLEM 7
     assert patched["components"]["parameters"]["device_number"]["schema"]["maximum"] == 4294967295
+    assert raw["components"]["schemas"]["AlpacaRequest"]["properties"]["ClientID"]["minimum"] == 1  # PROBLEM 2
+    state = raw["components"]["responses"]["DeviceStateResponse"]["content"]["application/json"]["schema"]
+    assert "oneOf" in state["allOf"][1]["properties"]["Value"]["items"]["properties"]["Value"]  # PROBLEM 3
+    put = raw["paths"]["/telescope/{device_number}/slewtocoordinatesasync"]["put"]
+    assert "required" not in put["requestBody"]  # SPEC PROBLEM 4
+    management = yaml.safe_load(MANAGEMENT_SPEC.read_text(encoding="utf-8"))
+    assert "400" not in management["paths"]["/management/v1/description"]["get"]["responses"]  # PROBLEM 5
+    assert raw["components"]["schemas"]["RightAscension"]["maximum"] == 23.9999999999  # SPEC PROBLEM 6
+
+
+def test_no_correction_touches_reply_values() -> None:
+    """Error replies are held to the published Value types: no correction may widen a reply's Value."""
+    raw = yaml.safe_load(DEVICE_SPEC.read_text(encoding="utf-8"))
+    bound_integer_formats(raw)  # SPEC PROBLEM 1 only narrows (int32/uint32 ranges), so it is allowed here
+    patched = device_spec()
+    for name, response in raw["components"]["responses"].items():
+        if name == "DeviceStateResponse":
+            continue  # SPEC PROBLEM 3 is inside the items of an array, not the reply's Value type
+        assert patched["components"]["responses"][name] == response, name
+
+
+GET_PARAMS = {"axis": "0", "rightascension": "1.5", "declination": "10.0"}
+
+
+def _check_every_get(base_url: str) -> dict[int, int]:
+    """GET every telescope and common member once; each reply must match its official schema."""
+    session = requests.Session()
+    errors: dict[int, int] = {}
+    for result in device_schema.get_all_operations():
+        operation = result.ok()
+        if operation.method.upper() != "GET":
+            continue
+        member = operation.path.rsplit("/", 1)[-1]
+        url = f"{base_url}/api/v1/telescope/0/{member}"
+        query = {p.name: GET_PARAMS[p.name.lower()] for p in operation.query if p.name.lower() in GET_PARAMS}
+        response = session.get(url, params={**query, "ClientTransactionID": "7"}, timeout=30)
+        assert response.status_code == 200, (member, response.text)
+        operation.validate_response(response)  # raises on any schema violation, Value type included
+        body = response.json()
+        assert body["Value"] is not None and body["ClientTransactionID"] == 7, (member, body)
+        errors[body["ErrorNumber"]] = errors.get(body["ErrorNumber"], 0) + 1
+    return errors
+
+
+def test_every_get_error_reply_matches_the_official_schema(server_factory: Any) -> None:
+    """Deterministic companion to the fuzzing: error replies of every GET, not only those it happens on.
+
+    Disconnected, every member that needs the mount answers NotConnected (0x407); connected, the
+    unset targets answer ValueNotSet (0x402). Each reply carries its member's default Value.
+    """
+    server = server_factory()
+    base_url = f"http://127.0.0.1:{server.port}"
+    disconnected = _check_every_get(base_url)
+    assert disconnected.get(0x407, 0) >= 15, disconnected
+    reply = requests.put(f"{base_url}/api/v1/telescope/0/connected", data={"Connected": "true"}, timeout=30)
+    assert reply.json()["ErrorNumber"] == 0
+    connected = _check_every_get(base_url)
+    assert connected.get(0x402, 0) == 2 and 0x407 not in connected, connected
