@@ -389,10 +389,10 @@ class StellariumBridge:
                 return
             del self._clients[client.sock.fileno()]
             remaining = len(self._clients)
+        log.log(level, "Stellarium %s %s (%d still connected)", client.address, reason, remaining)
         with contextlib.suppress(KeyError, ValueError):
             self._selector.unregister(client.sock)
         client.sock.close()
-        log.log(level, "Stellarium %s %s (%d still connected)", client.address, reason, remaining)
         if remaining == 0:
             self._set_hold(False)
 
