@@ -37,6 +37,14 @@ class LinkTimeout(LinkError):
     """Raised when the mount does not complete a reply within the link timeout."""
 
 
+class AmbiguousReply(ProtocolError):
+    """Raised when a reply is not exactly one known form (junk around it): the outcome is unknown."""
+
+
+class MotionCancelled(AlpacaZwoError):
+    """Raised when a motion command is withdrawn unsent because a stop arrived first."""
+
+
 class ConfigError(AlpacaZwoError):
     """Raised when a configuration file or command-line value is invalid; names file, key and reason."""
 

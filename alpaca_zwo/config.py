@@ -30,6 +30,7 @@ import platformdirs
 import tomli_w
 
 from alpaca_zwo._exceptions import ConfigError
+from alpaca_zwo.firmware import DEFAULT_PRESET, MODELS, PRESETS
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -269,7 +270,7 @@ class SafetySettings:
 
     moveaxis_watchdog_s: float = _setting(15.0, _float(1.0, 600.0))
     on_shutdown: Literal["stop", "park"] = _setting("stop", _choice("stop", "park"))
-    guide_max_ms: int = _setting(3000, _int(1, 60000))
+    guide_max_ms: int = _setting(60000, _int(1, 60000))  # the longest PulseGuide accepted (ms)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -287,8 +288,11 @@ class EmulatorSettings:
 
     speed: float = _setting(1.0, _float(0.01, 10000.0))  # clock rate relative to real time
     baud: int = _setting(0, _int(1200, 921600, also=(0,)))  # 0 = unpaced, in-process
-    firmware: str = _setting("1.9.0", _str(nonempty=True, pattern=r"\d+\.\d+\.\d+", hint="like '1.9.0'"))
-    model: str = _setting("AM5", _choice("AM3", "AM5", "AM5N", "AM7"))
+    #: The firmware build to behave as, by name (``alpaca_zwo.firmware.PRESETS``: version, model and quirks).
+    preset: str = _setting(DEFAULT_PRESET, _choice(*PRESETS))
+    #: The version ``:GV#`` reports and the model; empty: the preset's own.
+    firmware: str = _setting("", _str(pattern=r"\d+\.\d+\.\d+", hint="like '1.9.0'"))
+    model: str = _setting("", _choice("", *MODELS))
 
 
 @dataclass(frozen=True, kw_only=True)

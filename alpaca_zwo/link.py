@@ -13,6 +13,17 @@ next command, drains the input and proves it is back in step with a probe whose 
 knows, repeated until nothing else arrives behind that reply. Only then does a new command go
 out, so a stale reply can never be read as the answer to a later request.
 
+Stops have an urgent lane: :meth:`Link.send_urgent` writes a reply-less command (``:Q#``,
+``:Qe#`` …) at once, between the bytes of whatever exchange is in flight, taking only the write
+lock (held for the duration of one ``write``). A motion command may carry a *guard* that is
+checked under that same lock right before its bytes go out, so a stop that bumped the guard's
+generation either prevents the command or is written after it; it is never overtaken.
+
+A reply that is not exactly one known form (a setter's byte with more bytes right behind it, a
+GOTO's ``0`` followed by ``e5#``) is *ambiguous*: the link resynchronises and raises
+:class:`~alpaca_zwo._exceptions.AmbiguousReply`, and the caller re-reads the mount's state
+instead of assuming success.
+
 When the port vanishes (USB unplugged, WiFi dropped, mount rebooted) the link reconnects in the
 background with backoff and bumps :attr:`Link.generation`, which tells the mount layer that the
 mount may have lost its time and site.
@@ -35,7 +46,7 @@ from typing import Any
 import serial
 
 from . import protocol
-from ._exceptions import LinkError, LinkTimeout, ProtocolError
+from ._exceptions import AmbiguousReply, LinkError, LinkTimeout, MotionCancelled, ProtocolError
 
 log = logging.getLogger(__name__)
 
@@ -142,6 +153,8 @@ class Link:
     DRAIN_LIMIT_S = 1.0
     READ_SLICE_S = 0.05
     PROBE_TIMEOUT_S = 1.0
+    #: After a one-byte reply, this much silence (plus 3 byte times) proves nothing else came with it.
+    TRAILING_QUIET_S = 0.003
     PROBE = protocol.query("GVP")
 
     def __init__(
@@ -161,6 +174,7 @@ class Link:
         self._reconnect_delays = reconnect_delays
         self._port: Any = None
         self._arbiter = _Arbiter()
+        self._write_lock = threading.Lock()  # held only around one port.write (urgent lane + exchanges)
         self._state_lock = threading.Lock()
         self._status = LinkStatus(LinkState.CLOSED, url, time.time())
         self._suspect = False
@@ -226,12 +240,20 @@ class Link:
 
     # -- exchanges ---------------------------------------------------------------------------
 
-    def execute(self, req: protocol.Request, priority: Priority = Priority.COMMAND) -> Any:
+    def execute(self, req: protocol.Request, priority: Priority = Priority.COMMAND, *,
+                guard: Callable[[], bool] | None = None, not_before: float | None = None) -> Any:
         """Send ``req`` and return its parsed reply (None for commands without a reply)."""
-        return req.parse(self.exchange(req, priority))
+        return req.parse(self.exchange(req, priority, guard=guard, not_before=not_before))
 
-    def exchange(self, req: protocol.Request, priority: Priority = Priority.COMMAND) -> str:
-        """Send ``req`` and return its raw reply text ('' for commands without a reply)."""
+    def exchange(self, req: protocol.Request, priority: Priority = Priority.COMMAND, *,
+                 guard: Callable[[], bool] | None = None, not_before: float | None = None) -> str:
+        """Send ``req`` and return its raw reply text ('' for commands without a reply).
+
+        ``guard`` is called under the write lock right before the bytes go out; if it returns
+        False nothing is sent and :class:`MotionCancelled` is raised. ``not_before`` (a
+        ``time.monotonic()`` instant) holds the line and writes no earlier than that, so a timed
+        command (the :Td# that freezes an alt/az landing) is not delayed by a poll starting first.
+        """
         if self._status.state is not LinkState.CONNECTED:
             raise LinkError(f"mount link is {self._status.state.value}: {self._status.last_error or 'not open'}")
         self._arbiter.acquire(priority, self.timeout * 4)
@@ -244,17 +266,46 @@ class Link:
                 # Bytes nobody asked for: stale or junk. Get back in step before sending.
                 self._suspect = True
                 self._resynchronise()
-            return self._exchange_locked(req)
+            if not_before is not None:
+                delay = not_before - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            return self._exchange_locked(req, guard)
         except (serial.SerialException, OSError) as exc:
             self._lost(exc)
             raise LinkError(f"mount link lost: {exc}") from exc
         finally:
             self._arbiter.release()
 
-    def _exchange_locked(self, req: protocol.Request) -> str:
+    def send_urgent(self, req: protocol.Request) -> None:
+        """Write a reply-less command now, even while another exchange waits for its reply.
+
+        Only for commands the mount never answers (stops): nothing is read, so no reply can be
+        shifted. Takes only the write lock, never the line, so a stop waits for at most one
+        ``write`` of a few bytes rather than a whole exchange.
+        """
+        if req.kind is not protocol.ReplyKind.NONE:
+            raise ValueError(f"{req.text} has a reply; only reply-less commands may use the urgent lane")
+        started = time.monotonic()
+        with self._write_lock:
+            port = self._port
+            if port is None or self._status.state is not LinkState.CONNECTED:
+                raise LinkError(f"mount link is {self._status.state.value}: {self._status.last_error or 'not open'}")
+            try:
+                port.write(req.wire)
+            except (serial.SerialException, OSError) as exc:
+                raise LinkError(f"mount link lost while stopping: {exc}") from exc
+            self.counters.bytes_out += len(req.wire)
+            self.counters.exchanges += 1
+        self._record(req.text, "", started, "urgent")
+
+    def _exchange_locked(self, req: protocol.Request, guard: Callable[[], bool] | None = None) -> str:
         started = time.monotonic()
         wire = req.wire
-        self._port.write(wire)
+        with self._write_lock:
+            if guard is not None and not guard():
+                raise MotionCancelled(f"{req.text} not sent: a stop came first")
+            self._port.write(wire)
         self.counters.bytes_out += len(wire)
         self.counters.exchanges += 1
         try:
@@ -264,11 +315,30 @@ class Link:
             self._suspect = True
             self._record(req.text, None, started, f"timeout: {exc}")
             raise LinkTimeout(f"no complete reply to {req.text} within {self.timeout:.1f} s") from exc
+        if req.kind in (protocol.ReplyKind.CHAR, protocol.ReplyKind.GOTO) and self._trailing_bytes():
+            # A one-byte answer with more right behind it ('0' then 'e5#'): which byte was the
+            # reply is unknowable, so it is neither success nor failure.
+            self._suspect = True
+            self._record(req.text, reply, started, "ambiguous: more bytes followed the reply")
+            raise AmbiguousReply(f"ambiguous reply to {req.text}: {reply!r} followed by more bytes")
         self._record(req.text, reply, started)
         if not _plausible(req, reply):
             self._suspect = True
             raise ProtocolError(f"implausible reply {reply!r} to {req.text}")
         return reply
+
+    def _trailing_bytes(self) -> bool:
+        """Whether bytes arrive right behind a reply (within a few byte times of silence)."""
+        port = self._port
+        if port.in_waiting:
+            return True
+        byte_time = 10.0 / self.baud if self.baud else 0.0
+        deadline = time.monotonic() + self.TRAILING_QUIET_S + 3 * byte_time
+        while time.monotonic() < deadline:
+            if port.in_waiting:
+                return True
+            time.sleep(0.0005)
+        return False
 
     def _read_reply(self, kind: protocol.ReplyKind, deadline: float) -> str:
         if kind is protocol.ReplyKind.NONE:

@@ -26,14 +26,10 @@ from . import protocol
 from ._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
 from .link import Link, LinkStatus, Priority
 from .protocol import Direction, MeridianSettings, MountStatus, TrackingState, TrackRate
+from .sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
 
 log = logging.getLogger(__name__)
 
-SIDEREAL_DAY_S = 86164.0905
-#: Sidereal rate in degrees per SI second (15.041″/s).
-SIDEREAL_DEG_S = 360.0 / SIDEREAL_DAY_S
-#: How fast RA drifts (hours per second) when the mount does not track: LST runs at this rate.
-SIDEREAL_HOURS_PER_S = 24.0 / SIDEREAL_DAY_S
 #: Tracking rates as multiples of sidereal; the King rate is not offered by ZWO mounts.
 TRACK_RATE_FACTORS = {
     TrackRate.SIDEREAL: 1.0,
@@ -98,7 +94,6 @@ class MountState:
     tracking_rate: TrackRate = TrackRate.SIDEREAL
     guide_rate: float = 0.5
     moving_axes: frozenset[int] = frozenset()
-    guide_until: tuple[float, float] = (0.0, 0.0)  # monotonic end of the RA and Dec pulses
     link: LinkStatus | None = None
     info: MountInfo | None = None
     initialised: bool = False  # time and site pushed since the link last (re)connected
@@ -109,10 +104,6 @@ class MountState:
         if self.position_time is None:
             return None
         return (time.monotonic() if now is None else now) - self.position_time
-
-    def is_guiding(self, now: float | None = None) -> bool:
-        stamp = time.monotonic() if now is None else now
-        return stamp < max(self.guide_until)
 
     @property
     def goto_running(self) -> bool:
@@ -174,6 +165,10 @@ class PositionEstimator:
         self.anchor_ra = self.anchor_dec = None
         self.pending = []
 
+    def in_motion(self, now: float) -> bool:
+        """Whether a motion the estimator carries (a guide pulse) is still running."""
+        return any(end > now for _, end, _, _ in self.pending)
+
     def observe(self, raw_ra: float, raw_dec: float, now: float) -> tuple[float, float]:
         predicted = self.predict(now)
         if predicted is None:
@@ -196,6 +191,8 @@ class PositionEstimator:
 
 
 SiteProvider = Callable[[], tuple[float, float]]
+#: Checked by the link right before a motion command is written; False withdraws it (a stop came first).
+Guard = Callable[[], bool]
 
 
 class Mount:
@@ -240,7 +237,11 @@ class Mount:
         #: Added to the host clock when the mount's time is pushed (a client may set UTCDate).
         self.clock_offset = timedelta(0)
         self._goto_target: tuple[float, float] | None = None
-        self._commands = 0  # client commands sent so far; lets a poll notice it overlapped one
+        #: Bumped (under _publish_lock) after every command that changes what a poll reads, so a
+        #: poll that overlapped one publishes nothing: a reading from before a sync must never
+        #: land after it.
+        self._epoch = 0
+        self._publish_lock = threading.Lock()
 
     # -- state -------------------------------------------------------------------------------
 
@@ -375,13 +376,17 @@ class Mount:
 
     # -- motion ------------------------------------------------------------------------------
 
-    def goto(self, ra: float, dec: float) -> None:
-        """Start a GOTO. MountReplyError carries the mount's refusal (e3, e5, e6, e7 …)."""
+    def goto(self, ra: float, dec: float, guard: Guard | None = None) -> tuple[float, float]:
+        """Start a GOTO; return the target as the mount received it (whole seconds of RA, whole
+        arcseconds). MountReplyError carries the mount's refusal (e3, e5, e6, e7 …); ``guard``
+        withdraws the :MS# unsent (MotionCancelled) if a stop came first."""
         self.ensure_initialised()
-        self._exec(protocol.set_target_ra(ra))
-        self._exec(protocol.set_target_dec(dec))
+        set_ra, set_dec = protocol.set_target_ra(ra), protocol.set_target_dec(dec)
+        wire = (protocol.parse_hms(set_ra.text[3:-1]), protocol.parse_dms(set_dec.text[3:-1]))
+        self._exec(set_ra)
+        self._exec(set_dec)
         try:
-            self._exec(protocol.query("MS"))
+            self._exec(protocol.query("MS"), guard=guard)
         except MountReplyError as exc:
             if exc.code != 7:
                 raise
@@ -389,13 +394,14 @@ class Mount:
             self._init_generation = -1
             self._publish(initialised=False)
             self.ensure_initialised()
-            self._exec(protocol.set_target_ra(ra))
-            self._exec(protocol.set_target_dec(dec))
-            self._exec(protocol.query("MS"))
+            self._exec(set_ra)
+            self._exec(set_dec)
+            self._exec(protocol.query("MS"), guard=guard)
         with self._estimator_lock:
             self._estimator.invalidate()
-            self._goto_target = (ra, dec)
+            self._goto_target = wire
         self.refresh()
+        return wire
 
     def sync(self, ra: float, dec: float) -> None:
         self.ensure_initialised()
@@ -406,7 +412,7 @@ class Mount:
         with self._estimator_lock:
             self._estimator.set_exact(ra, dec, now)
             self._estimator.set_ra_rate(self._ra_drift(), now)
-        self._publish(ra=ra % 24.0, dec=dec, position_time=now)
+        self._changed(ra=ra % 24.0, dec=dec, position_time=now)
         self.refresh()
 
     def sync_estimate(self, ra: float, dec: float) -> None:
@@ -418,16 +424,18 @@ class Mount:
         self._publish(ra=ra % 24.0, dec=dec, position_time=now)
 
     def stop(self) -> None:
-        """Stop every motion (GOTO, home, manual moves, pulses); tracking keeps its setting."""
-        self._exec(protocol.query("Q"))
+        """Stop every motion (GOTO, home, manual moves, pulses) on the link's urgent lane, without
+        waiting for the exchange in flight; tracking keeps its setting."""
+        self.link.send_urgent(protocol.query("Q"))
         self._move_directions.clear()
         with self._estimator_lock:
             self._estimator.invalidate()
-        self._publish(moving_axes=frozenset(), guide_until=(0.0, 0.0))
+        self._changed(moving_axes=frozenset())
         self.refresh()
 
-    def move_axis(self, axis: int, rate_deg_s: float) -> None:
-        """Move axis 0 (RA: + is east) or 1 (Dec: + is north) at a sky rate; 0 stops that axis."""
+    def move_axis(self, axis: int, rate_deg_s: float, guard: Guard | None = None) -> None:
+        """Move axis 0 (RA: + is east) or 1 (Dec: + is north) at a sky rate; 0 stops that axis
+        (on the urgent lane). ``guard`` withdraws a start unsent if a stop came first."""
         if axis not in (0, 1):
             raise ValueError(f"axis {axis} cannot move")
         moving = set(self._state.moving_axes)
@@ -436,7 +444,7 @@ class Mount:
             directions = [previous] if previous else (
                 [Direction.EAST, Direction.WEST] if axis == 0 else [Direction.NORTH, Direction.SOUTH])
             for direction in directions:
-                self._exec(protocol.stop_direction(direction))
+                self.link.send_urgent(protocol.stop_direction(direction))
             moving.discard(axis)
         else:
             multiple = min(abs(rate_deg_s) / SIDEREAL_DEG_S, protocol.SLEW_SPEEDS[-1])
@@ -449,20 +457,24 @@ class Mount:
             if self._move_directions.get(axis) is opposite:
                 self._exec(protocol.stop_direction(opposite))
             self._exec(protocol.set_variable_speed(round(multiple, 2)))
-            self._exec(protocol.move(direction))
+            self._exec(protocol.move(direction), guard=guard)
             self._move_directions[axis] = direction
             moving.add(axis)
         with self._estimator_lock:
             self._estimator.invalidate()
-        self._publish(moving_axes=frozenset(moving))
+        self._changed(moving_axes=frozenset(moving))
         self.refresh()
 
-    def pulse_guide(self, direction: Direction, milliseconds: int) -> float:
-        """Send one pulse (≤ 3000 ms, the mount's documented range); return its monotonic end."""
+    def pulse_guide(self, direction: Direction, milliseconds: int, guard: Guard | None = None) -> float:
+        """Send one pulse (≤ 3000 ms, the mount's documented range); return its end in mount time.
+
+        The pulse's displacement goes to the position estimator; the pulse itself (IsPulseGuiding,
+        continuation of long pulses) belongs to the motion supervisor.
+        """
         if not 0 <= milliseconds <= PULSE_CHUNK_MS:
             raise ValueError(f"pulse of {milliseconds} ms is outside 0..{PULSE_CHUNK_MS}")
         state = self._state
-        self._exec(protocol.pulse_guide(direction, milliseconds))
+        self._exec(protocol.pulse_guide(direction, milliseconds), guard=guard)
         start = self.monotonic()  # the mount times the pulse from its arrival, not from before it was sent
         end = start + milliseconds / 1000.0
         speed_deg = state.guide_rate * SIDEREAL_DEG_S
@@ -477,22 +489,18 @@ class Mount:
             ddec = -speed_deg
         with self._estimator_lock:
             self._estimator.add_motion(start, end, dra, ddec)
-        ra_end, dec_end = state.guide_until
-        if dra:
-            ra_end = end
-        else:
-            dec_end = end
-        self._publish(guide_until=(ra_end, dec_end))
+        self._poll_wake.set()  # poll fast while the pulse runs
         return end
 
-    def set_tracking(self, on: bool) -> None:
-        self._exec(protocol.query("Te" if on else "Td"))
-        self._publish(tracking=TrackingState(on))
+    def set_tracking(self, on: bool, guard: Guard | None = None, not_before: float | None = None) -> None:
+        """Switch tracking; ``not_before`` (a time.monotonic() instant) times the command exactly."""
+        self.link.execute(protocol.query("Te" if on else "Td"), Priority.COMMAND, guard=guard, not_before=not_before)
+        self._changed(tracking=TrackingState(on))
         self._rate_changed()
 
     def set_tracking_rate(self, rate: TrackRate) -> None:
         self._exec(protocol.set_tracking_rate(rate))
-        self._publish(tracking_rate=rate)
+        self._changed(tracking_rate=rate)
         self._rate_changed()
 
     def set_guide_rate(self, fraction: float) -> float:
@@ -501,8 +509,8 @@ class Mount:
         self._publish(guide_rate=actual)
         return actual
 
-    def home(self) -> None:
-        self._exec(protocol.query("hC"))
+    def home(self, guard: Guard | None = None) -> None:
+        self._exec(protocol.query("hC"), guard=guard)
         with self._estimator_lock:
             self._estimator.invalidate()
             self._goto_target = None
@@ -564,17 +572,24 @@ class Mount:
     def poll_once(self) -> MountState:
         """Read position, status, tracking and pier side with four short queries (≈55 bytes).
 
-        A client command that ran while this poll was under way may have changed what the poll
-        read before it (tracking, status): such a poll publishes only its position and asks for a
-        new poll, so a stale reading never overwrites a fresh command's effect.
+        A client command that ran while this poll was under way (a sync, a stop, tracking) may have
+        changed what the poll read before it: such a poll publishes nothing and asks for a new
+        one, so a stale reading never lands after a fresh command's effect.
         """
-        commands_before = self._commands
+        epoch = self._epoch
         ra, dec = self._exec(protocol.query("GMEQ"), Priority.POLL)
         now = self.monotonic()
         status = self._exec(protocol.query("GU"), Priority.POLL)
         tracking = self._exec(protocol.query("GAT"), Priority.POLL)
         pier = self._exec(protocol.query("Gm"), Priority.POLL)
-        overlapped = self._commands != commands_before
+        with self._publish_lock:
+            if self._epoch != epoch:
+                self.refresh()
+                return self._state
+            return self._publish_poll(ra, dec, now, status, tracking, pier)
+
+    def _publish_poll(self, ra: float, dec: float, now: float, status: MountStatus, tracking: TrackingState,
+                      pier: str) -> MountState:
         state = self._state
         moving = bool(state.moving_axes) or status.slewing
         with self._estimator_lock:
@@ -587,20 +602,17 @@ class Mount:
                     if target is not None and _close(target, (ra, dec)):
                         self._estimator.set_exact(target[0], target[1], now)
                     self._goto_target = None
-                drift = self._ra_drift(state.tracking if overlapped else tracking)
+                drift = self._ra_drift(tracking)
                 if drift != self._estimator.ra_rate:
                     self._estimator.set_ra_rate(drift, now)
                 best = self._estimator.observe(ra, dec, now)
-        if overlapped:
-            self.refresh()
-            return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now)
         return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now, status=status,
                              status_time=now, tracking=tracking, pier=pier, poll_error="")
 
     def _poll_loop(self) -> None:
         while not self._stop.is_set():
             state = self._state
-            busy = bool(state.moving_axes) or state.goto_running or state.is_guiding(self.monotonic())
+            busy = bool(state.moving_axes) or state.goto_running or self._estimator.in_motion(self.monotonic())
             self._poll_wake.wait(self.poll_fast_s if busy else self.poll_slow_s)
             self._poll_wake.clear()
             if self._stop.is_set():
@@ -619,8 +631,19 @@ class Mount:
 
     # -- helpers -----------------------------------------------------------------------------
 
-    def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND):
-        return self.link.execute(req, priority)
+    def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND, guard: Guard | None = None):
+        try:
+            return self.link.execute(req, priority, guard=guard)
+        finally:
+            if req.command.code in _STATUS_CHANGING:
+                with self._publish_lock:
+                    self._epoch += 1
+
+    def _changed(self, **changes: object) -> MountState:
+        """Publish the effect of a command, ending any poll that overlapped it (see poll_once)."""
+        with self._publish_lock:
+            self._epoch += 1
+            return self._publish(**changes)
 
     def _try(self, req: protocol.Request):
         try:
@@ -643,9 +666,10 @@ class Mount:
             self._estimator.set_ra_rate(self._ra_drift(), now)
 
 
-#: Commands that change what a poll reads (:GU#, :GAT#, :Gm#); pulses and queries do not.
+#: Commands that change what a poll reads (position, :GU#, :GAT#, :Gm#); pulses and queries do not.
 _STATUS_CHANGING = frozenset(
-    {"Te", "Td", "MS", "SMeq", "hC", "hP", "Q", "CM", "SMMC", "TQ", "TS", "TL", "Spu", "AP", "AA"}
+    {"Te", "Td", "MS", "SMeq", "hC", "hP", "Q", "CM", "SMMC", "TQ", "TS", "TL", "Spu", "AP", "AA",
+     "Me", "Mw", "Mn", "Ms", "Qe", "Qw", "Qn", "Qs"}
 )
 
 

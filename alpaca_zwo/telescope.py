@@ -1,13 +1,10 @@
-"""ASCOM ITelescopeV4 semantics on top of one :class:`~alpaca_zwo.mount.Mount`.
+"""ASCOM ITelescopeV4 semantics on top of one mount and its motion supervisor.
 
-Validation and ranges, the Can* flags, Slewing / IsPulseGuiding / AtPark bookkeeping, target and
-site caches and the client reference count live here; bytes do not. Every failure is an
-:class:`~alpaca_zwo._exceptions.AlpacaError` subclass carrying the ASCOM code a client expects.
-
-Busy flags are set *before* a call returns and cleared only by the supervisor thread when the
-mount has really finished: a GOTO counts as finished when a poll taken after the command shows
-the mount idle, having either seen it busy or waited out the mount's status lag. Slewing never
-flickers false mid-motion, and a pulse never sets it.
+Validation and ranges, the Can* flags, target and site caches and the client reference count live
+here; bytes do not, and neither does motion: every slew, move, pulse, park and stop goes through
+:class:`~alpaca_zwo.motion.MotionSupervisor`, which decides Slewing / IsPulseGuiding / AtPark from
+what the mount does. Every failure is an :class:`~alpaca_zwo._exceptions.AlpacaError` subclass
+carrying the ASCOM code a client expects.
 """
 
 from __future__ import annotations
@@ -19,9 +16,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
-from enum import Enum
 
 from . import __version__, sky
 from ._exceptions import (
@@ -30,7 +25,6 @@ from ._exceptions import (
     InvalidOperation,
     InvalidValue,
     LinkError,
-    LinkTimeout,
     MemberNotImplemented,
     MountReplyError,
     NotConnected,
@@ -40,64 +34,26 @@ from ._exceptions import (
 )
 from .clients import ClientKey, ClientRegistry, current_client
 from .config import DeviceSettings, Settings, horizon_altitude_at
-from .mount import PULSE_CHUNK_MS, SIDEREAL_DEG_S, Mount, MountState
+from .motion import ERR_LINK, ERR_MOUNT_PROTOCOL, ERR_MOUNT_REFUSED, Motion, MotionKind, MotionSupervisor
+from .mount import Mount, MountState
 from .protocol import SLEW_SPEEDS, Direction, MeridianSettings, MountMode, TrackRate
-from .sky import PierSide
+from .sky import SIDEREAL_DEG_S, PierSide
 from .store import SettingsStore
 
 log = logging.getLogger(__name__)
 
-#: The mount's status flags can lag a command by ~0.5 s (field notes §5.1).
-STATUS_LAG_S = 1.0
-MAX_MOTION_S = 600.0
 #: After the last client disconnects the link stays open this long, so reconnects are instant.
 LINGER_S = 60.0
 #: During a link outage, Connected stays true (last-known state served with its age) this long.
 LINK_GRACE_S = 30.0
-MAX_PULSE_MS = 60_000
 #: The mount's clock keeps a two-digit year; a day of margin either side for the UTC offset.
 MOUNT_EPOCH_FIRST = datetime(2000, 1, 2, tzinfo=timezone.utc)
 MOUNT_EPOCH_LAST = datetime(2099, 12, 30, tzinfo=timezone.utc)
-#: A GOTO takes about this long per degree plus a fixed part; used to aim HA-fixed targets.
-SLEW_S_PER_DEG = 1 / 5.0
-SLEW_S_FIXED = 3.0
-
 DRIVE_RATES = {0: TrackRate.SIDEREAL, 1: TrackRate.LUNAR, 2: TrackRate.SOLAR}
 RATE_CODES = {rate: code for code, rate in DRIVE_RATES.items()}
 GUIDE_DIRECTIONS = {0: Direction.NORTH, 1: Direction.SOUTH, 2: Direction.EAST, 3: Direction.WEST}
 AXIS_MIN_DEG_S = SLEW_SPEEDS[0] * SIDEREAL_DEG_S  # 0.25x sidereal
 
-# DriverError numbers, so scripts can tell the cases apart.
-ERR_LINK = 0x500
-ERR_MOUNT_REFUSED = 0x501
-ERR_MOUNT_PROTOCOL = 0x502
-ERR_TIMEOUT = 0x503
-
-
-class MotionKind(Enum):
-    GOTO = "goto"
-    ALTAZ = "slew to alt/az"
-    PARK = "park"
-    HOME = "find home"
-
-
-@dataclass
-class _Motion:
-    kind: MotionKind
-    started: float
-    saw_busy: bool = False
-    arrived_at: float | None = None
-
-
-@dataclass
-class _Pulse:
-    """A guide pulse sent in chunks of at most 3 s: ``remaining_ms`` not yet sent, and the mount time
-    by which the whole pulse should be over (a link failure may cost pulse time, nothing else may)."""
-
-    direction: Direction
-    remaining_ms: int
-    deadline: float
-    chunk_end: float
 
 
 def _utc(t: datetime) -> datetime:
@@ -127,9 +83,9 @@ class Telescope:
         self.clock = clock or mount.clock
         self.linger_s = linger_s
         self.link_grace_s = link_grace_s
-        # Three locks, so a GET never waits on the serial line: _clients_lock guards the client set
-        # and is never held across I/O; _lock serialises commands (held across I/O, never taken by
-        # a GET); _wake is what the supervisor and synchronous slews wait on.
+        # Two locks, so a GET never waits on the serial line: _clients_lock guards the client set
+        # and is never held across I/O; _lock serialises opening and closing the mount link.
+        # Motion has its own locks (motion.py).
         self._lock = threading.RLock()
         self._clients_lock = threading.Lock()
         self._clients: set[ClientKey] = set()
@@ -137,19 +93,11 @@ class Telescope:
         self._linger_timer: threading.Timer | None = None
         self._target_ra: float | None = None
         self._target_dec: float | None = None
-        self._motion: _Motion | None = None
-        self._restore_tracking: bool | None = None
-        self._parked = False
         self._settle_s = 0
         self._utc_offset = timedelta(0)
-        self._pulses: dict[int, _Pulse] = {}
-        self._move_owner: dict[int, ClientKey | None] = {}
         self._meridian = MeridianSettings()
-        self._stop_pending = ""  # why a safety stop is still owed to the mount ('' = none)
-        self._wake = threading.Condition()
-        self._stop = threading.Event()
-        self._supervisor = threading.Thread(target=self._supervise, name=f"telescope-{device_index}", daemon=True)
-        self._supervisor.start()
+        self.motion = MotionSupervisor(mount, lambda: self.store.settings, self._lst, self.registry,
+                                       name=f"motion-{device_index}")
 
     # -- configuration -----------------------------------------------------------------------
 
@@ -172,21 +120,16 @@ class Telescope:
     def shutdown(self, park: bool = False, park_timeout_s: float = 120.0) -> None:
         """Leave the mount safe when the server stops: no manual motion, parked if configured."""
         if self.mount.running:
-            self._stop_manual_motion("the server is shutting down")
-            if self._pulses:
-                self._pulses.clear()
-            if park and not self._parked:
+            self.motion.stop_manual("the server is shutting down")
+            if park and not self.motion.parked:
                 try:
                     log.info("parking on shutdown")
-                    self._park()
-                    deadline = time.monotonic() + park_timeout_s
-                    with self._wake:
-                        while self._motion is not None and time.monotonic() < deadline:
-                            self._wake.wait(0.25)
+                    motion = self._park()
+                    if motion is not None:
+                        self.motion.wait(motion, park_timeout_s)
                 except AlpacaError as exc:
                     log.error("could not park on shutdown: %s", exc.message)
-        self._stop.set()
-        self._notify()
+        self.motion.close()
         self._cancel_linger()
         if self.mount.running:
             self.mount.disconnect()
@@ -344,8 +287,7 @@ class Telescope:
             self._clients.discard(key)
             remaining = len(self._clients)
         if remaining == 0 and self.mount.running:
-            with self._lock:
-                self._stop_manual_motion("the last client disconnected")
+            self.motion.stop_manual("the last client disconnected")
             with self._clients_lock:
                 if not self._clients:
                     self._cancel_linger()
@@ -363,14 +305,10 @@ class Telescope:
     def _linger_expired(self) -> None:
         with self._lock:
             with self._clients_lock:
-                if self._clients or self._motion is not None:
+                if self._clients or self.motion.motion is not None:
                     return
             log.info("no client for %.0f s: closing the mount link", self.linger_s)
             self.mount.disconnect()
-
-    def _notify(self) -> None:
-        with self._wake:
-            self._wake.notify_all()
 
     def _require_connected(self) -> None:
         """The device is connected while at least one client holds it (the link may linger longer)."""
@@ -380,7 +318,7 @@ class Telescope:
             raise NotConnected("the telescope is not connected: set Connected=true or call Connect first")
 
     def _require_unparked(self, what: str) -> None:
-        if self._parked:
+        if self.motion.parked:
             raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
 
     @contextmanager
@@ -489,25 +427,21 @@ class Telescope:
 
     def at_park(self) -> bool:
         self._require_connected()
-        return self._parked
+        return self.motion.parked
 
     def at_home(self) -> bool:
         state = self._state()
-        if self._motion is not None or state.moving_axes:
+        if self.motion.slewing(state):
             return False
         return state.pier == "N" or bool(state.status and state.status.at_home)
 
     def slewing(self) -> bool:
         self._require_connected()
-        return self._slewing_now(self.mount.state)
-
-    def _slewing_now(self, state: MountState) -> bool:
-        """Our own motions, manual moves, and any GOTO the mount reports (a hand-controller GOTO too)."""
-        return self._motion is not None or bool(state.moving_axes) or state.goto_running
+        return self.motion.slewing()
 
     def is_pulse_guiding(self) -> bool:
         self._require_connected()
-        return bool(self._pulses)
+        return self.motion.pulse_guiding()
 
     def side_of_pier(self) -> int:
         state = self._state()
@@ -551,14 +485,14 @@ class Telescope:
         return [
             ("Altitude", altitude),
             ("AtHome", self.at_home()),
-            ("AtPark", self._parked),
+            ("AtPark", self.motion.parked),
             ("Azimuth", azimuth),
             ("Declination", position[1]),
-            ("IsPulseGuiding", bool(self._pulses)),
+            ("IsPulseGuiding", self.motion.pulse_guiding()),
             ("RightAscension", position[0]),
             ("SideOfPier", self.side_of_pier()),
             ("SiderealTime", self._lst()),
-            ("Slewing", self._slewing_now(state)),
+            ("Slewing", self.motion.slewing(state)),
             ("Tracking", bool(state.tracking and state.tracking.on)),
             ("UTCDate", self.utc_now()),
             ("TimeStamp", stamp),
@@ -743,6 +677,7 @@ class Telescope:
         if not 0 <= value <= 3600:
             raise InvalidValue(f"SlewSettleTime {value} is outside 0..3600 s")
         self._settle_s = value
+        self.motion.settle_s = float(value)
 
     # -- slews ---------------------------------------------------------------------------------
 
@@ -771,113 +706,51 @@ class Telescope:
                 f"is under the {floor:.2f}° allowed there"
             )
 
-    def slew_to_coordinates_async(self, right_ascension: float, declination: float) -> None:
+    def slew_to_coordinates_async(self, right_ascension: float, declination: float) -> Motion:
         self._check_equatorial(right_ascension, declination)
         self._require_connected()
         self._require_unparked("SlewToCoordinatesAsync")
         self._target_ra, self._target_dec = right_ascension, declination
-        self._start_goto(right_ascension, declination, MotionKind.GOTO)
+        return self._goto(right_ascension, declination)
 
     def slew_to_coordinates(self, right_ascension: float, declination: float) -> None:
-        self.slew_to_coordinates_async(right_ascension, declination)
-        self._wait_motion()
+        self.motion.wait(self.slew_to_coordinates_async(right_ascension, declination))
 
-    def slew_to_target_async(self) -> None:
+    def slew_to_target_async(self) -> Motion:
         ra, dec = self.target_right_ascension(), self.target_declination()
         self._require_connected()
         self._require_unparked("SlewToTargetAsync")
-        self._start_goto(ra, dec, MotionKind.GOTO)
+        return self._goto(ra, dec)
 
     def slew_to_target(self) -> None:
-        self.slew_to_target_async()
-        self._wait_motion()
+        self.motion.wait(self.slew_to_target_async())
 
-    def _aim_fixed_hour_angle(self, ha: float, dec: float) -> tuple[float, float]:
-        """RA/Dec to GOTO so the mount arrives at a point fixed to the ground (HA/Dec, alt/az).
-
-        A GOTO chases a fixed RA while the sky turns; aiming at the RA the point will have when the
-        slew ends keeps the arrival within a fraction of the sky's motion during the slew.
-        """
-        here = self.mount.position()
-        lst = self._lst()
-        if here is None:
-            return sky.ra_from_hour_angle(lst, ha), dec
-        distance = sky.angular_separation(sky.ra_from_hour_angle(lst, ha), dec, *here)
-        lead_s = SLEW_S_FIXED + distance * SLEW_S_PER_DEG
-        return sky.ra_from_hour_angle(lst + lead_s * 24.0 / 86164.0905, ha), dec
+    def _goto(self, ra: float, dec: float) -> Motion:
+        self._check_above_limits(ra, dec)
+        return self.motion.goto(ra, dec)
 
     def _radec_from_altaz(self, azimuth: float, altitude: float) -> tuple[float, float]:
         ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
         return sky.ra_from_hour_angle(self._lst(), ha), dec
 
-    def slew_to_alt_az_async(self, azimuth: float, altitude: float) -> None:
+    def slew_to_alt_az_async(self, azimuth: float, altitude: float) -> Motion:
         self._check_horizontal(azimuth, altitude)
         self._require_connected()
         self._require_unparked("SlewToAltAzAsync")
         ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
-        self._start_goto(*self._aim_fixed_hour_angle(ha, dec), MotionKind.ALTAZ)
+        self._check_above_limits(sky.ra_from_hour_angle(self._lst(), ha), dec)
+        tracking = bool(self.mount.state.tracking and self.mount.state.tracking.on)
+        # With tracking off the pointing is frozen on the Alt/Az at the landing instant; with it on,
+        # the slew ends at the instant the pointing passes the Alt/Az, and tracking carries on.
+        return self.motion.goto_fixed(ha, dec, MotionKind.ALTAZ, freeze=not tracking)
 
     def slew_to_alt_az(self, azimuth: float, altitude: float) -> None:
-        self.slew_to_alt_az_async(azimuth, altitude)
-        self._wait_motion()
-
-    def _start_goto(self, ra: float, dec: float, kind: MotionKind) -> None:
-        self._check_above_limits(ra, dec)
-        with self._lock:
-            self._stop_for_new_motion()
-            was_tracking = bool(self.mount.state.tracking and self.mount.state.tracking.on)
-            self._restore_tracking = was_tracking if kind is MotionKind.ALTAZ else None
-            self._motion = _Motion(kind, self.mount.monotonic())
-        try:
-            self.mount.goto(ra, dec)
-        except LinkTimeout as exc:
-            # The reply was lost, not necessarily the command: the mount may be slewing. Keep the
-            # motion under supervision; polls end it as soon as they show the mount idle.
-            self._notify()
-            raise DriverError(f"{kind.value}: the mount did not confirm the GOTO ({exc}); Slewing shows whether "
-                              "it started", ERR_TIMEOUT) from exc
-        except (MountReplyError, ProtocolError, LinkError) as exc:
-            with self._lock:
-                self._motion = None
-            with self._mount_errors(kind.value):
-                raise exc
-        self._notify()
-
-    def _stop_for_new_motion(self) -> None:
-        """A new GOTO replaces whatever moves now: stop it and wait for the mount to be idle."""
-        state = self.mount.state
-        if self._motion is None and not state.moving_axes and not state.goto_running:
-            return
-        with self._mount_errors("stopping the current motion"):
-            self.mount.stop()
-        self._motion = None
-        self._move_owner.clear()
-        self.mount.refresh()
-        idle = self.mount.wait_for(
-            lambda s: s.status_time is not None and s.status_time > self.mount.monotonic() - 0.5 and not s.goto_running,
-            timeout=10.0,
-        )
-        if idle is None:
-            raise DriverError("the mount did not stop the previous motion", ERR_TIMEOUT)
-
-    def _wait_motion(self) -> None:
-        deadline = time.monotonic() + MAX_MOTION_S
-        with self._wake:
-            while self._motion is not None:
-                if time.monotonic() > deadline:
-                    raise DriverError("the slew did not finish in time", ERR_TIMEOUT)
-                self._wake.wait(0.25)
+        self.motion.wait(self.slew_to_alt_az_async(azimuth, altitude))
 
     def abort_slew(self) -> None:
         self._require_connected()
         self._require_unparked("AbortSlew")
-        with self._lock:
-            self._motion = None
-            self._restore_tracking = None
-            self._move_owner.clear()
-            with self._mount_errors("AbortSlew"):
-                self.mount.stop()
-        self._notify()
+        self.motion.abort()
 
     # -- syncs ---------------------------------------------------------------------------------
 
@@ -908,7 +781,7 @@ class Telescope:
         self._sync(*self._radec_from_altaz(azimuth, altitude))
 
     def _sync(self, ra: float, dec: float) -> None:
-        if self._motion is not None or self.mount.state.moving_axes:
+        if self.motion.slewing():
             raise InvalidOperation("cannot sync while the mount is moving")
         here = self.mount.position()
         if here is not None and sky.angular_separation(ra, dec, *here) < 1 / 3600:
@@ -923,40 +796,23 @@ class Telescope:
     def find_home(self) -> None:
         self._require_connected()
         self._require_unparked("FindHome")
-        with self._lock:
-            self._stop_for_new_motion()
-            self._motion = _Motion(MotionKind.HOME, self.mount.monotonic())
-        try:
-            with self._mount_errors("FindHome"):
-                self.mount.home()
-        except AlpacaError:
-            self._motion = None
-            raise
+        self.motion.home()
 
     def park(self) -> None:
         self._require_connected()
         self._park()
 
-    def _park(self) -> None:
-        if self._parked:
-            return  # parking twice is harmless
+    def _park(self) -> Motion | None:
+        if self.motion.parked:
+            return None  # parking twice is harmless
         park = self.settings.park
-        with self._lock:
-            self._stop_for_new_motion()
-            self._motion = _Motion(MotionKind.PARK, self.mount.monotonic())
-        try:
-            with self._mount_errors("Park"):
-                if park.mode == "home":
-                    self.mount.home()
-                else:
-                    self.mount.goto(*self._aim_fixed_hour_angle(park.ha_hours, park.dec_deg))
-        except AlpacaError:
-            self._motion = None
-            raise
+        if park.mode == "home":
+            return self.motion.home(MotionKind.PARK)
+        return self.motion.goto_fixed(park.ha_hours, park.dec_deg, MotionKind.PARK, freeze=True)
 
     def unpark(self) -> None:
         self._require_connected()
-        self._parked = False
+        self.motion.parked = False
 
     def set_park(self) -> None:
         ra, dec = self._position()
@@ -976,178 +832,16 @@ class Telescope:
             )
         self._require_connected()
         self._require_unparked("MoveAxis")
-        with self._lock:
-            if rate != 0.0 and self._motion is not None:
-                raise InvalidOperation(f"a {self._motion.kind.value} is in progress; abort it first")
-            with self._mount_errors("MoveAxis"):
-                self.mount.move_axis(axis, rate)
-            if rate == 0.0:
-                self._move_owner.pop(axis, None)
-            else:
-                self._move_owner[axis] = current_client.get()
-
-    def _stop_manual_motion(self, why: str) -> None:
-        if not self._move_owner and not self.mount.state.moving_axes:
-            return
-        log.warning("stopping manual motion: %s", why)
-        self._move_owner.clear()
-        try:
-            for axis in (0, 1):
-                if axis in self.mount.state.moving_axes:
-                    self.mount.move_axis(axis, 0.0)
-        except (LinkError, ProtocolError, MountReplyError) as exc:
-            self._safety_stop(f"{why} (stopping the axes failed: {exc})")
-
-    def _safety_stop(self, why: str) -> None:
-        """Send :Q# now, and keep retrying from the supervisor until the mount has taken it."""
-        try:
-            self.mount.stop()
-            self._stop_pending = ""
-            log.warning("mount stopped: %s", why)
-        except (LinkError, ProtocolError) as exc:
-            if not self._stop_pending:
-                log.error("could not stop the mount (%s): %s; retrying until it answers", why, exc)
-            self._stop_pending = why
+        self.motion.move_axis(axis, rate, current_client.get())
 
     # -- guiding -------------------------------------------------------------------------------
 
     def pulse_guide(self, direction: int, duration: int) -> None:
+        longest = self.settings.safety.guide_max_ms
         if direction not in GUIDE_DIRECTIONS:
             raise InvalidValue(f"Direction {direction} is not 0 (N), 1 (S), 2 (E) or 3 (W)")
-        if not 0 <= duration <= MAX_PULSE_MS:
-            raise InvalidValue(f"Duration {duration} ms is outside 0..{MAX_PULSE_MS} ms")
+        if not 0 <= duration <= longest:
+            raise InvalidValue(f"Duration {duration} ms is outside 0..{longest} ms (safety.guide_max_ms)")
         self._require_connected()
         self._require_unparked("PulseGuide")
-        if self._motion is not None:
-            raise InvalidOperation(f"cannot pulse guide during a {self._motion.kind.value}")
-        if duration == 0:
-            return
-        guide = GUIDE_DIRECTIONS[direction]
-        axis = 0 if guide in (Direction.EAST, Direction.WEST) else 1
-        chunk = min(duration, PULSE_CHUNK_MS)
-        with self._lock:
-            with self._mount_errors("PulseGuide"):
-                end = self.mount.pulse_guide(guide, chunk)
-            self._pulses[axis] = _Pulse(guide, duration - chunk, end - chunk / 1000.0 + duration / 1000.0, end)
-        self._notify()
-
-    # -- supervisor ------------------------------------------------------------------------------
-
-    def _supervise(self) -> None:
-        """One loop that ends motions, continues long pulses and enforces the safety rules."""
-        while not self._stop.is_set():
-            with self._wake:
-                self._wake.wait(self._next_wake())
-            if self._stop.is_set():
-                return
-            try:
-                self._tick()
-            except Exception:  # the supervisor must survive anything to keep the mount safe
-                log.exception("telescope supervisor error")
-
-    def _next_wake(self) -> float:
-        """Real seconds to wait: 0.1 s at most, sooner when a pulse chunk ends (in mount time)."""
-        now = self.mount.monotonic()
-        rate = self.mount.clock_rate
-        delays = [0.1]
-        delays.extend(max(0.0, pulse.chunk_end - now) / rate for pulse in self._pulses.values())
-        return min(delays)
-
-    def _tick(self) -> None:
-        if self._stop_pending and self.mount.running:
-            self._safety_stop(self._stop_pending)
-        now = self.mount.monotonic()
-        self._tick_pulses(now)
-        self._tick_motion(now)
-        self._tick_watchdog()
-
-    def _tick_pulses(self, now: float) -> None:
-        """Send the next chunk of long pulses. If the link is down, retry until the pulse's own end:
-        the mount carries on with the chunk it has, and the rest goes out once the link is back."""
-        with self._lock:
-            for axis, pulse in list(self._pulses.items()):
-                if now < pulse.chunk_end:
-                    continue
-                if pulse.remaining_ms < 10 or not self.mount.running:
-                    del self._pulses[axis]
-                    continue
-                chunk = min(pulse.remaining_ms, PULSE_CHUNK_MS)
-                try:
-                    end = self.mount.pulse_guide(pulse.direction, chunk)
-                except (LinkError, ProtocolError) as exc:
-                    # What the link outage took is lost; the rest still ends by the pulse's deadline.
-                    left = min(pulse.remaining_ms, int((pulse.deadline - now) * 1000.0))
-                    log.warning("pulse continuation failed (%s); retrying with %d ms left", exc, left)
-                    self._pulses[axis] = _Pulse(pulse.direction, left, pulse.deadline, now + 0.05)
-                    continue
-                self._pulses[axis] = _Pulse(pulse.direction, pulse.remaining_ms - chunk, pulse.deadline, end)
-
-    def _tick_motion(self, now: float) -> None:
-        motion = self._motion
-        if motion is None:
-            return
-        state = self.mount.state
-        if now - motion.started > MAX_MOTION_S:
-            log.error("%s did not finish within %.0f s: stopping", motion.kind.value, MAX_MOTION_S)
-            self._finish_motion(motion, arrived=False)
-            return
-        if motion.arrived_at is None:
-            if state.status_time is None or state.status_time <= motion.started or state.status is None:
-                return  # no reading taken after the command yet
-            if state.status.slewing:
-                motion.saw_busy = True
-                return
-            if not motion.saw_busy and state.status_time - motion.started < STATUS_LAG_S:
-                return  # the flags may still show the state from before the command
-            motion.arrived_at = now
-            self._on_arrival(motion)
-        if now - motion.arrived_at >= self._settle_s:
-            self._finish_motion(motion, arrived=True)
-
-    def _on_arrival(self, motion: _Motion) -> None:
-        try:
-            if motion.kind is MotionKind.PARK or (motion.kind is MotionKind.ALTAZ and self._restore_tracking is False):
-                self.mount.set_tracking(False)
-        except (LinkError, ProtocolError, MountReplyError) as exc:
-            log.error("after %s: could not set tracking: %s", motion.kind.value, exc)
-
-    def _finish_motion(self, motion: _Motion, arrived: bool) -> None:
-        with self._lock:
-            if self._motion is not motion:
-                return
-            if motion.kind is MotionKind.PARK and arrived:
-                self._parked = True
-                log.info("parked")
-            self._motion = None
-            self._restore_tracking = None
-        self._notify()
-
-    def _tick_watchdog(self) -> None:
-        """Stop a MoveAxis whose client stopped talking, and any manual move below the horizon."""
-        if not self._move_owner:
-            return
-        limit = self.settings.safety.moveaxis_watchdog_s
-        now = time.monotonic()
-        for axis, owner in list(self._move_owner.items()):
-            if owner is None:
-                continue
-            seen = self.registry.last_seen(owner)
-            if seen is not None and now - seen > limit:
-                with self._lock:
-                    self._stop_axis(axis, f"client {owner} went silent for {now - seen:.0f} s during MoveAxis")
-        state = self.mount.state
-        if state.ra is not None and state.dec is not None and self._move_owner:
-            altitude, azimuth = self._altaz((state.ra, state.dec))
-            floor = horizon_altitude_at(self.settings.limits, azimuth)
-            if altitude < floor:
-                with self._lock:
-                    for axis in list(self._move_owner):
-                        self._stop_axis(axis, f"manual move reached the horizon limit ({altitude:.2f}° < {floor:.2f}°)")
-
-    def _stop_axis(self, axis: int, why: str) -> None:
-        log.warning("stopping axis %d: %s", axis, why)
-        self._move_owner.pop(axis, None)
-        try:
-            self.mount.move_axis(axis, 0.0)
-        except (LinkError, ProtocolError, MountReplyError) as exc:
-            self._safety_stop(f"{why} (stopping axis {axis} failed: {exc})")
+        self.motion.pulse(GUIDE_DIRECTIONS[direction], duration)

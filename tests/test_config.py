@@ -61,13 +61,15 @@ def test_defaults_match_the_documented_values() -> None:
     assert s.limits == LimitSettings(
         min_altitude_deg=0.0, horizon=(), meridian_limit_deg=0.0, meridian_track_past=False
     )
-    assert (s.safety.moveaxis_watchdog_s, s.safety.on_shutdown, s.safety.guide_max_ms) == (15.0, "stop", 3000)
+    assert (s.safety.moveaxis_watchdog_s, s.safety.on_shutdown, s.safety.guide_max_ms) == (15.0, "stop", 60000)
     assert (s.logging.level, s.logging.file, s.logging.trace_size) == ("INFO", "", 2000)
-    assert (s.emulator.speed, s.emulator.baud, s.emulator.firmware, s.emulator.model) == (
+    # Model and firmware version come from the preset unless set: one default, in alpaca_zwo.firmware.
+    assert (s.emulator.speed, s.emulator.baud, s.emulator.preset, s.emulator.firmware, s.emulator.model) == (
         1.0,
         0,
-        "1.9.0",
-        "AM5",
+        "am5-1.9.2",
+        "",
+        "",
     )
 
 
@@ -167,7 +169,7 @@ def test_round_trip_of_non_default_settings(tmp_path: Path) -> None:
         ),
         safety=config.SafetySettings(moveaxis_watchdog_s=30.0, on_shutdown="park", guide_max_ms=10000),
         logging=config.LoggingSettings(level="DEBUG", file="/var/log/az.log", trace_size=0),
-        emulator=config.EmulatorSettings(speed=50.0, baud=9600, firmware="1.6.3", model="AM5N"),
+        emulator=config.EmulatorSettings(speed=50.0, baud=9600, preset="am5n-1.6.3", firmware="1.6.3", model="AM5N"),
     )
     save_settings(original, path)
     assert load_settings(path) == original
