@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import date, time
 from enum import Enum
@@ -88,6 +88,25 @@ PARK_SET_CODES: dict[str, str] = {
 def error_reply(code: int) -> str:
     """The wire text of mount error ``code``."""
     return f"e{code}#"
+
+
+def char_reply(ok: bool) -> str:
+    """A setter's bare one-character answer (``ReplyKind.CHAR``): ``1`` accepted, ``0`` refused."""
+    return "1" if ok else "0"
+
+
+def goto_reply(code: int) -> str:
+    """A GOTO's answer (``ReplyKind.GOTO``): a bare ``0`` when it starts, else ``eN#``."""
+    return "0" if code == 0 else error_reply(code)
+
+
+def sync_reply(code: int) -> str:
+    """``:CM#``'s answer: ``N/A#`` when the sync is taken, else ``eN#``."""
+    return SYNC_ACK + "#" if code == 0 else error_reply(code)
+
+
+#: The text of a taken ``:CM#`` sync (``:SMMC#`` answers the synced coordinates instead).
+SYNC_ACK = "N/A"
 
 
 def _raise_if_error(request: str, reply: str) -> None:
@@ -277,6 +296,17 @@ SLEW_SPEEDS: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 20.0, 60.0, 720
 #: ``:GT#`` digit -> rate; firmware disagrees on 1 and 2 (field notes §6 row 6).
 GT_ENGLISH = {"0": TrackRate.SIDEREAL, "1": TrackRate.SOLAR, "2": TrackRate.LUNAR}
 GT_CHINESE = {"0": TrackRate.SIDEREAL, "1": TrackRate.LUNAR, "2": TrackRate.SOLAR}
+#: The two orders by the name firmware variants use for them.
+GT_MAPPINGS = {"english": GT_ENGLISH, "chinese": GT_CHINESE}
+#: ``:GT#``'s digit for a custom (``:STR``) rate, on firmware that has one.
+GT_CUSTOM = "3"
+
+
+def format_tracking_rate(rate: TrackRate | None, mapping: str = "english") -> str:
+    """The ``:GT#`` digit of ``rate`` in a firmware's ``mapping`` (None: a custom rate)."""
+    if rate is None:
+        return GT_CUSTOM
+    return next(digit for digit, named in GT_MAPPINGS[mapping].items() if named is rate)
 
 
 @dataclass(frozen=True)
@@ -433,11 +463,25 @@ def _gat(text: str) -> TrackingState:
     raise ProtocolError(f"not a :GAT# reply: {text!r}")
 
 
+def _sync_ack(text: str) -> bool:
+    """``:CM#``/``:SMMC#``: ``N/A`` or (V1.1's ``:SMMC#``) the synced coordinates mean the sync was taken."""
+    if text != SYNC_ACK and not _HMS_RE.fullmatch(text.split("&")[0]):
+        raise ProtocolError(f"unexpected sync reply {text!r}")
+    return True
+
+
 def _gmti(text: str) -> tuple[date, time, float]:
     parts = text.split("&")
     if len(parts) != 3:
         raise ProtocolError(f"not a :GMTI# reply: {text!r}")
     return parse_date(parts[0]), parse_time(parts[1]), parse_utc_offset(parts[2])
+
+
+def format_tracking_state(on: bool, error: int | None = None) -> str:
+    """``:GAT#``'s answer: ``1#`` tracking, ``0#`` not, or the ``eN#`` that says why it stopped."""
+    if on:
+        return "1#"
+    return error_reply(error) if error is not None else "0#"
 
 
 def _gps(text: str) -> int | None:
@@ -464,6 +508,8 @@ class Command:
     parse: Callable[[str], Any] | None = None
     source: str = "doc"  # "doc": ZWO V1.1; "field": real mounts/drivers (field notes §2)
     error_is_value: bool = False  # :GAT#'s eN# reports why tracking stopped; it is not a refusal
+    #: CHAR replies other than ``1`` that name a failure (``:Sp01#``'s 2..9), instead of a plain ``0``.
+    failure_codes: Mapping[str, str] | None = None
 
     @property
     def args_re(self) -> re.Pattern[str] | None:
@@ -536,15 +582,16 @@ COMMANDS: tuple[Command, ...] = (
     Command("Rg", _N, "set guide rate (fraction of sidereal)", r"\d{1,2}(?:\.\d{1,2})?"),
     Command("Ggr", _T, "get guide rate", parse=_float_text, source="field"),
     # Sync and alignment
-    Command("CM", _T, "sync to the target (N/A#)"),
-    Command("SMMC", _T, "set target and sync", _HMS_ARG + "&" + _DMS_ARG),
+    Command("CM", _T, "sync to the target (N/A#)", parse=_sync_ack),
+    Command("SMMC", _T, "set target and sync", _HMS_ARG + "&" + _DMS_ARG, parse=_sync_ack),
     Command("NSC", _C, "clear alignment points", source="field"),
     # Home, park
     Command("hC", _N, "go to mechanical home"),
     Command("Gh", _T, "homed? (unreliable)", parse=_text, source="field"),
     Command("SOa", _C, "set current position as home", source="field"),
     Command("hP", _N, "go to factory park (latches a stored parked state)", source="field"),
-    Command("Sp01", _C, "store current position as park position 1", source="field"),
+    Command("Sp01", _C, "store current position as park position 1", source="field",
+            failure_codes=PARK_SET_CODES),
     Command("Spu", _C, "unpark (clear the parked latch)", source="field"),
     Command("Gps", _T, "park status 0-3 (empty on some firmware)", parse=_gps, source="field"),
     # Meridian and limits
@@ -643,26 +690,24 @@ class Request:
         if not self.command.error_is_value:
             _raise_if_error(self.text, reply)
         if kind is ReplyKind.CHAR:
-            if self.command.code == "Sp01":
-                if reply != "1":
-                    raise MountReplyError(self.text, reply, None, PARK_SET_CODES.get(reply, "unknown"))
-                return True
-            if reply == "1":
-                return True
-            if reply == "0":
-                raise MountReplyError(self.text, reply)
-            raise ProtocolError(f"unexpected reply {reply!r} to {self.text}")
+            return self._char(reply)
         if kind is ReplyKind.GOTO:
             if reply == "0":
                 return True
             raise MountReplyError(self.text, reply)
         body = _text(reply)
-        if self.command.code in ("CM", "SMMC"):
-            if body != "N/A" and not _HMS_RE.fullmatch(body.split("&")[0]):
-                raise ProtocolError(f"unexpected sync reply {reply!r}")
-            return True
         parser = self.command.parse
         return parser(body) if parser is not None else body
+
+    def _char(self, reply: str) -> bool:
+        if reply == "1":
+            return True
+        codes = self.command.failure_codes
+        if codes is not None:
+            raise MountReplyError(self.text, reply, None, codes.get(reply, "unknown"))
+        if reply == "0":
+            raise MountReplyError(self.text, reply)
+        raise ProtocolError(f"unexpected reply {reply!r} to {self.text}")
 
 
 def request(code: str, argument: str = "") -> Request:

@@ -47,15 +47,17 @@ class EmbeddedEmulator:
     """The built-in mount, served on a loopback TCP port so the whole driver stack is exercised."""
 
     def __init__(self, settings: Settings, speed: float, baud: int) -> None:
-        from .emulator import EmulatorServer, FirmwareVariant, MountModel, ScaledClock
+        from .emulator import EmulatorServer, MountModel, ScaledClock, preset
 
         self.clock = ScaledClock(speed=speed)
-        firmware = FirmwareVariant(model=settings.emulator.model, version=settings.emulator.firmware)
+        config = settings.emulator
+        overrides = {"model": config.model, "version": config.firmware}
+        firmware = preset(config.preset, **{key: value for key, value in overrides.items() if value})
         self.model = MountModel(self.clock, firmware=firmware)
         self.server = EmulatorServer(self.model, host="127.0.0.1", port=0, baud=baud)
         self.server.start()
         self.url = f"socket://127.0.0.1:{self.server.port}"
-        log.info("built-in emulator (%s %s, speed %gx) at %s", firmware.model, firmware.version, speed, self.url)
+        log.info("built-in emulator (%s, speed %gx) at %s", firmware.describe(), speed, self.url)
 
     def now(self) -> datetime:
         return self.clock.now()

@@ -20,7 +20,7 @@ import pytest
 import requests
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import ServerSettings, StellariumSettings, load_settings
+from alpaca_zwo.config import EmulatorSettings, ServerSettings, StellariumSettings, load_settings
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.store import SettingsStore
@@ -255,6 +255,16 @@ def test_status_shows_a_running_bridge_and_its_programs(server_factory: Callable
         shown = wait_for(lambda: client.status()["bridges"][0]["clients"], what="the Stellarium program listed")
         assert len(shown) == 1
     wait_for(lambda: not client.status()["bridges"][0]["clients"], what="the program gone from the list")
+
+
+@pytest.mark.parametrize(("preset", "shown"), [("am5-1.9.2", ("AM5", "1.9.2")), ("am5n-1.6.3", ("AM5N", "1.6.3"))])
+def test_the_built_in_emulator_is_the_configured_preset(server_factory: Callable[..., AlpacaZwoServer], preset: str,
+                                                         shown: tuple[str, str]) -> None:
+    server = server_factory(make_settings(emulator=EmulatorSettings(speed=1.0, baud=0, preset=preset)))
+    client = Client(f"http://127.0.0.1:{server.port}")
+    client.put("connected", Connected="true")
+    mount = wait_for(lambda: client.status()["mount"], what="the mount's identity")
+    assert (mount["model"], mount["firmware"]) == shown
 
 
 def test_status_matches_the_alpaca_api(connected: Client) -> None:

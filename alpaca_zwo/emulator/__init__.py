@@ -11,14 +11,16 @@ and a pseudo-terminal with baud-rate pacing; ``Faults`` makes the line misbehave
 
 from __future__ import annotations
 
+from ..firmware import PRESETS, FirmwareVariant, preset
 from .clock import ManualClock, ScaledClock
 from .control import ControlServer
 from .faults import Faults
-from .model import FirmwareVariant, MountModel
+from .model import MountModel
 from .responder import Responder
 from .server import EmulatorServer
 
 __all__ = [
+    "PRESETS",
     "ControlServer",
     "EmulatorServer",
     "Faults",
@@ -27,4 +29,5 @@ __all__ = [
     "MountModel",
     "Responder",
     "ScaledClock",
+    "preset",
 ]

@@ -19,9 +19,20 @@ from collections.abc import Sequence
 from datetime import datetime, timezone
 from types import FrameType
 
+from ..firmware import (
+    DEFAULT_PRESET,
+    GH_REPLIES,
+    GPS_REPLIES,
+    GT_MAPPINGS,
+    HOME_FLAGS,
+    MODELS,
+    PRESETS,
+    FirmwareVariant,
+    preset,
+)
 from .clock import ScaledClock
 from .control import ControlServer
-from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, FirmwareVariant, MountModel
+from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, MountModel
 from .server import EmulatorServer, pty_support_error
 
 __all__ = ["build_parser", "main"]
@@ -79,57 +90,42 @@ def build_parser() -> argparse.ArgumentParser:
         "--initialized", action="store_true", help="start as if a client had already set date, time (UTC) and site"
     )
 
-    fw = parser.add_argument_group("firmware variant")
-    defaults = FirmwareVariant()
-    fw.add_argument("--model", choices=("AM5", "AM3", "AM5N", "AM7"), default=defaults.model)
-    fw.add_argument("--firmware", default=defaults.version, metavar="X.Y.Z", help="version reported by :GV#")
-    fw.add_argument(
-        "--home-flag",
-        choices=("after_home", "never", "always_at_home"),
-        default=defaults.home_flag,
-        help="when :GU# shows H",
-    )
-    fw.add_argument(
-        "--gt-mapping",
-        choices=("english", "chinese"),
-        default=defaults.gt_mapping,
-        help=":GT# digits: english 1=solar 2=lunar, chinese 1=lunar 2=solar",
-    )
-    fw.add_argument(
-        "--gps-reply", choices=("digits", "empty"), default=defaults.gps_reply, help=":Gps# answers 0/1/2 or an empty #"
-    )
-    fw.add_argument("--hp-reply", choices=("none", "1#"), default="none", help=":hP# answers nothing or 1#/0#")
-    fw.add_argument(
-        "--gh-reply",
-        choices=("empty", "zero", "homed"),
-        default=defaults.gh_reply,
-        help=":Gh# answers #, 0#, or 1#/0# by whether a home completed",
-    )
-    fw.add_argument(
-        "--compound-goto-sync", action="store_true", help=":SMeq/:SMMC work as documented (real firmware answers e2#)"
-    )
-    fw.add_argument("--custom-tracking", action="store_true", help=":STRnn# custom rate works (real: no reply)")
-    fw.add_argument("--gmza-south-azimuth", action="store_true", help=":GMZA# azimuth measured from south")
+    fw = parser.add_argument_group("firmware variant (a preset; the options below override its switches)")
+    fw.add_argument("--preset", choices=tuple(PRESETS), default=DEFAULT_PRESET,
+                    help="; ".join(f"{v.name}: {v.description}" for v in PRESETS.values()))
+    fw.add_argument("--model", choices=MODELS, help="model reported by :GVP# (default: the preset's)")
+    fw.add_argument("--firmware", metavar="X.Y.Z", help="version reported by :GV# (default: the preset's)")
+    fw.add_argument("--home-flag", choices=HOME_FLAGS, help="when :GU# shows H")
+    fw.add_argument("--gt-mapping", choices=GT_MAPPINGS,
+                    help=":GT# digits: english 1=solar 2=lunar, chinese 1=lunar 2=solar")
+    fw.add_argument("--gps-reply", choices=GPS_REPLIES, help=":Gps# answers 0/1/2 or an empty #")
+    fw.add_argument("--hp-reply", choices=("none", "1#"), help=":hP# answers nothing or 1#/0#")
+    fw.add_argument("--gh-reply", choices=GH_REPLIES, help=":Gh# answers #, 0#, or 1#/0# by whether a home completed")
+    for flag, text in (("--compound-goto-sync", ":SMeq/:SMMC work as documented (real firmware answers e2#)"),
+                       ("--custom-tracking", ":STRnn# custom rate works (real: no reply)"),
+                       ("--gmza-south-azimuth", ":GMZA# azimuth measured from south")):
+        fw.add_argument(flag, action="store_const", const=True, help=text)
 
     parser.add_argument("--log-level", default="WARNING", help="DEBUG, INFO, WARNING (default) or ERROR")
     return parser
 
 
+def firmware_from_args(args: argparse.Namespace) -> FirmwareVariant:
+    """The chosen preset with the switches given on the command line changed."""
+    switches = {name: getattr(args, name) for name in (
+        "model", "home_flag", "gt_mapping", "gps_reply", "gh_reply", "compound_goto_sync", "custom_tracking",
+        "gmza_south_azimuth")}
+    switches["version"] = args.firmware
+    overrides = {name: value for name, value in switches.items() if value is not None}
+    if args.hp_reply is not None:  # "none" is a value of its own: the :hP# that answers nothing
+        overrides["hp_reply"] = None if args.hp_reply == "none" else args.hp_reply
+    return preset(args.preset, **overrides)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    firmware = FirmwareVariant(
-        model=args.model,
-        version=args.firmware,
-        home_flag=args.home_flag,
-        gt_mapping=args.gt_mapping,
-        gps_reply=args.gps_reply,
-        hp_reply=None if args.hp_reply == "none" else args.hp_reply,
-        gh_reply=args.gh_reply,
-        compound_goto_sync=args.compound_goto_sync,
-        custom_tracking=args.custom_tracking,
-        gmza_south_azimuth=args.gmza_south_azimuth,
-    )
+    firmware = firmware_from_args(args)
     # Handlers first: a supervisor may send SIGTERM as soon as it has read the endpoint lines.
     stop = threading.Event()
 
@@ -162,7 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
 
     print(
-        f"alpaca-zwo-emulator: {firmware.model} firmware {firmware.version}, baud {server.baud}, "
+        f"alpaca-zwo-emulator: {firmware.describe()}, baud {server.baud}, "
         f"speed {clock.speed:g}x, start {clock.now().isoformat(timespec='seconds')}"
     )
     print(f"tcp {args.host}:{server.port}")

@@ -29,11 +29,12 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from datetime import date, datetime, time, timedelta, timezone
 from typing import Any
 
 from .. import sky
+from ..firmware import FirmwareVariant
 from ..protocol import SLEW_SPEEDS, MeridianSettings, MountMode, MountStatus
 from ..sky import LUNAR_DEG_S, SIDEREAL_DEG_S, SOLAR_DEG_S
 from .clock import Clock
@@ -72,58 +73,7 @@ SYNC_POLE_DEG = 85.0
 EPOCH_LOCAL = datetime(2000, 1, 1)  # the mount's clock at power-on: 01/01/00 00:00:00
 
 _TRACK_RATES = ("sidereal", "solar", "lunar", "custom")
-_HOME_FLAGS = ("after_home", "never", "always_at_home")
-_GT_MAPPINGS = ("english", "chinese")
-_GPS_REPLIES = ("digits", "empty")
-_HP_REPLIES = (None, "1#")
-_GH_REPLIES = ("empty", "zero", "homed")
 RA, DEC = 0, 1
-
-
-# --------------------------------------------------------------------------------------------
-# Firmware variants
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass
-class FirmwareVariant:
-    """Switches for the behaviours that differ between real firmware builds (field notes §5.6, §6).
-
-    Mutable on purpose: a test may flip one switch on a running model to see how a client copes.
-    """
-
-    model: str = "AM5"  # :GVP#
-    version: str = "1.9.2"  # :GV#
-    compile_time: str = "10:24:36"  # :GVT# (listed in V1.1, unconfirmed on hardware)
-    home_flag: str = "after_home"  # 'H' in :GU#: after_home | never | always_at_home
-    gt_mapping: str = "english"  # :GT# digits: english 1 solar 2 lunar | chinese 1 lunar 2 solar
-    gps_reply: str = "digits"  # :Gps#: digits 0/1/2 | empty '#'
-    hp_reply: str | None = None  # :hP#: None (no reply, v1.8+) | "1#" (1#/0#, seen by PYAM5)
-    gh_reply: str = "empty"  # :Gh#: empty '#' | zero '0#' | homed '1#' after a home, else '0#'
-    compound_goto_sync: bool = False  # False: :SMeq/:SMMC answer e2# as on hardware
-    custom_tracking: bool = False  # False: :STR gets no reply (absent on real firmware)
-    gmza_south_azimuth: bool = False  # True: :GMZA# azimuth from south (AM5N showed 180 at home)
-
-    def __post_init__(self) -> None:
-        self.validate()
-
-    def validate(self) -> None:
-        """Reject a misspelt switch value early instead of silently acting as the default."""
-        choices = {
-            "home_flag": _HOME_FLAGS,
-            "gt_mapping": _GT_MAPPINGS,
-            "gps_reply": _GPS_REPLIES,
-            "hp_reply": _HP_REPLIES,
-            "gh_reply": _GH_REPLIES,
-        }
-        for name, allowed in choices.items():
-            if getattr(self, name) not in allowed:
-                raise ValueError(f"FirmwareVariant.{name} must be one of {allowed}, not {getattr(self, name)!r}")
-        if self.model not in ("AM3", "AM5", "AM5N", "AM7"):
-            raise ValueError(f"unknown mount model {self.model!r}")
-
-    def as_dict(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
 # --------------------------------------------------------------------------------------------

@@ -16,6 +16,8 @@ from .. import protocol
 from .._exceptions import ProtocolError
 from ..protocol import (
     MountMode,
+    char_reply,
+    error_reply,
     format_azimuth,
     format_date,
     format_dms,
@@ -42,18 +44,10 @@ _log = logging.getLogger(__name__)
 
 Handler = Callable[[str, bool], "str | None"]
 
-_GT_DIGITS = {
-    "english": {"sidereal": "0", "solar": "1", "lunar": "2", "custom": "3"},
-    "chinese": {"sidereal": "0", "lunar": "1", "solar": "2", "custom": "3"},
-}
-
-
-def _ok(flag: bool) -> str:
-    return "1" if flag else "0"
-
-
-def _err(code: int) -> str:
-    return f"e{code}#"
+def _gt_digit(rate_name: str, mapping: str) -> str:
+    """The model's rate name ("custom" for an :STR rate) as this firmware's :GT# digit."""
+    rate = None if rate_name == "custom" else protocol.TrackRate(rate_name)
+    return protocol.format_tracking_rate(rate, mapping)
 
 
 def _two_digits(argument: str) -> int | None:
@@ -101,8 +95,8 @@ class Responder:
             "GL": lambda a, w: format_time(m.local_datetime().time()) + "#",
             "SS": self._set_sidereal,
             "GS": lambda a, w: format_hms(m.sidereal_time()) + "#",
-            "GH": lambda a, w: _ok(m.dst()) + "#",
-            "SH": lambda a, w: _ok(w and m.set_dst(a == "1")),
+            "GH": lambda a, w: char_reply(m.dst()) + "#",
+            "SH": lambda a, w: char_reply(w and m.set_dst(a == "1")),
             "SG": self._set_zone,
             "GG": lambda a, w: format_utc_offset(m.utc_offset()) + "#",
             "St": self._set_latitude,
@@ -127,7 +121,7 @@ class Responder:
             "GMEQ": self._get_position,
             "GMZA": self._get_horizontal,
             # Motion
-            "MS": lambda a, w: self._goto_reply(m.goto()),
+            "MS": lambda a, w: protocol.goto_reply(m.goto()),
             "SMeq": self._set_and_goto,
             "Q": silent(m.stop),
             "Me": silent(lambda: m.move("e")),
@@ -150,38 +144,38 @@ class Responder:
             "TQ": silent(lambda: m.set_tracking_rate("sidereal")),
             "TS": silent(lambda: m.set_tracking_rate("solar")),
             "TL": silent(lambda: m.set_tracking_rate("lunar")),
-            "GT": lambda a, w: _GT_DIGITS[m.firmware.gt_mapping][m.tracking_rate()] + "#",
+            "GT": lambda a, w: _gt_digit(m.tracking_rate(), m.firmware.gt_mapping) + "#",
             "STR": self._custom_rate,
-            "Te": lambda a, w: _ok(m.tracking_on()),
-            "Td": lambda a, w: _ok(m.tracking_off()),
+            "Te": lambda a, w: char_reply(m.tracking_on()),
+            "Td": lambda a, w: char_reply(m.tracking_off()),
             "GAT": self._tracking_state,
             # Guiding
             "Mg": self._pulse,
             "Rg": self._guide_rate,
             "Ggr": lambda a, w: f"{m.guide_rate():.2f}#",
             # Sync and alignment
-            "CM": lambda a, w: self._sync_reply(m.sync()),
+            "CM": lambda a, w: protocol.sync_reply(m.sync()),
             "SMMC": self._set_and_sync,
             "NSC": self._always_one(m.clear_alignment),
             # Home, park
             "hC": silent(m.home),
             "Gh": self._homed,
-            "SOa": lambda a, w: _ok(m.set_current_as_home()),
+            "SOa": lambda a, w: char_reply(m.set_current_as_home()),
             "hP": self._park,
             "Sp01": lambda a, w: m.set_park_position(),
-            "Spu": lambda a, w: _ok(m.unpark()),
+            "Spu": lambda a, w: char_reply(m.unpark()),
             "Gps": self._park_status,
             # Meridian and limits
             "STa": self._set_meridian,
             "GTa": lambda a, w: format_meridian(m.meridian()) + "#",
             "SLE": self._always_one(lambda: m.set_limits_enabled(True)),
             "SLD": self._always_one(lambda: m.set_limits_enabled(False)),
-            "GLC": lambda a, w: _ok(m.limits_enabled()) + "#",
+            "GLC": lambda a, w: char_reply(m.limits_enabled()) + "#",
             "SLH": self._set_upper_limit,
             "GLH": lambda a, w: f"{m.altitude_limits()[1]}#",
             "SLL": self._set_lower_limit,
             "GLL": lambda a, w: f"{m.altitude_limits()[0]}#",
-            "SRl": lambda a, w: _ok(w and m.set_max_speed(int(a))),
+            "SRl": lambda a, w: char_reply(w and m.set_max_speed(int(a))),
             "GRl": lambda a, w: f"{m.max_speed()}#",
             # Mode, buzzer, identity
             "AP": silent(lambda: m.request_mode(MountMode.EQUATORIAL)),
@@ -193,7 +187,7 @@ class Responder:
             "GVP": lambda a, w: m.firmware.model + "#",
             "GVT": lambda a, w: m.firmware.compile_time + "#",
             "GBl": lambda a, w: m.ble_name() + "#",
-            "SBl": lambda a, w: _ok(w and m.set_ble_suffix(a)),
+            "SBl": lambda a, w: char_reply(w and m.set_ble_suffix(a)),
             "BS": lambda a, w: "OK#" if w and m.ble_pair(a) else "NO#",
         }
         return table
@@ -228,13 +222,13 @@ class Responder:
 
     def _set_date(self, argument: str, well_formed: bool) -> str:
         try:
-            return _ok(well_formed and self.model.set_date(parse_date(argument)))
+            return char_reply(well_formed and self.model.set_date(parse_date(argument)))
         except ProtocolError:
             return "0"
 
     def _set_time(self, argument: str, well_formed: bool) -> str:
         try:
-            return _ok(well_formed and self.model.set_time(parse_time(argument)))
+            return char_reply(well_formed and self.model.set_time(parse_time(argument)))
         except ProtocolError:
             return "0"
 
@@ -244,23 +238,23 @@ class Responder:
                 return "1"
         except ProtocolError:
             pass
-        return _err(2)
+        return error_reply(2)
 
     def _set_zone(self, argument: str, well_formed: bool) -> str:
         try:
-            return _ok(well_formed and self.model.set_utc_offset(parse_utc_offset(argument)))
+            return char_reply(well_formed and self.model.set_utc_offset(parse_utc_offset(argument)))
         except ProtocolError:
             return "0"
 
     def _set_latitude(self, argument: str, well_formed: bool) -> str:
         try:
-            return _ok(well_formed and self.model.set_latitude(parse_dms(argument)))
+            return char_reply(well_formed and self.model.set_latitude(parse_dms(argument)))
         except ProtocolError:
             return "0"
 
     def _set_longitude(self, argument: str, well_formed: bool) -> str:
         try:
-            return _ok(well_formed and self.model.set_longitude(parse_longitude(argument)))
+            return char_reply(well_formed and self.model.set_longitude(parse_longitude(argument)))
         except ProtocolError:
             return "0"
 
@@ -272,7 +266,7 @@ class Responder:
             day, clock, offset = parse_date(day_text), parse_time(time_text), parse_utc_offset(zone_text)
         except (ProtocolError, ValueError):
             return "0"
-        return _ok(self.model.set_date_time_zone(day, clock, offset))
+        return char_reply(self.model.set_date_time_zone(day, clock, offset))
 
     def _get_date_time_zone(self, _argument: str, _well_formed: bool) -> str:
         local = self.model.local_datetime()
@@ -289,7 +283,7 @@ class Responder:
             return "0"
         if not (-90.0 <= latitude <= 90.0 and -180.0 <= longitude <= 180.0):
             return "0"
-        return _ok(self.model.set_latitude(latitude) and self.model.set_longitude(longitude))
+        return char_reply(self.model.set_latitude(latitude) and self.model.set_longitude(longitude))
 
     # ---------------------------------------------------------------- position and target
 
@@ -299,7 +293,7 @@ class Responder:
                 return "1"
         except ProtocolError:
             pass
-        return _err(2)  # seconds or minutes of 60, or a bad format (PYAM5)
+        return error_reply(2)  # seconds or minutes of 60, or a bad format (PYAM5)
 
     def _set_target_dec(self, argument: str, well_formed: bool) -> str:
         try:
@@ -307,7 +301,7 @@ class Responder:
                 return "1"
         except ProtocolError:
             pass
-        return _err(2)
+        return error_reply(2)
 
     def _get_position(self, _argument: str, _well_formed: bool) -> str:
         ra, dec = self.model.position()
@@ -321,10 +315,6 @@ class Responder:
 
     # ---------------------------------------------------------------- motion
 
-    @staticmethod
-    def _goto_reply(code: int) -> str:
-        return "0" if code == 0 else _err(code)
-
     def _parse_pair(self, argument: str) -> tuple[float, float] | None:
         try:
             ra_text, dec_text = argument.split("&")
@@ -336,10 +326,10 @@ class Responder:
     def _set_and_goto(self, argument: str, well_formed: bool) -> str:
         pair = self._parse_pair(argument) if well_formed else None
         if not self.model.firmware.compound_goto_sync or pair is None:
-            return _err(2)  # what real firmware answers (PYAM5)
+            return error_reply(2)  # what real firmware answers (PYAM5)
         self.model.set_target_ra(pair[0])
         self.model.set_target_dec(pair[1])
-        return self._goto_reply(self.model.goto())
+        return protocol.goto_reply(self.model.goto())
 
     def _select_speed(self, argument: str, well_formed: bool) -> None:
         if well_formed:
@@ -356,13 +346,10 @@ class Responder:
     def _custom_rate(self, argument: str, well_formed: bool) -> str | None:
         if not self.model.firmware.custom_tracking:
             return None  # not a command on real firmware: silence
-        return _ok(well_formed and self.model.set_custom_rate(int(argument) / 10.0))
+        return char_reply(well_formed and self.model.set_custom_rate(int(argument) / 10.0))
 
     def _tracking_state(self, _argument: str, _well_formed: bool) -> str:
-        on, error = self.model.tracking_state()
-        if on:
-            return "1#"
-        return _err(error) if error is not None else "0#"
+        return protocol.format_tracking_state(*self.model.tracking_state())
 
     def _pulse(self, argument: str, well_formed: bool) -> None:
         if well_formed:
@@ -382,19 +369,15 @@ class Responder:
 
     # ---------------------------------------------------------------- sync, home, park
 
-    @staticmethod
-    def _sync_reply(code: int) -> str:
-        return "N/A#" if code == 0 else _err(code)
-
     def _set_and_sync(self, argument: str, well_formed: bool) -> str:
         pair = self._parse_pair(argument) if well_formed else None
         if not self.model.firmware.compound_goto_sync or pair is None:
-            return _err(2)
+            return error_reply(2)
         self.model.set_target_ra(pair[0])
         self.model.set_target_dec(pair[1])
         code = self.model.sync()
         if code:
-            return _err(code)
+            return error_reply(code)
         return self._get_position("", True)  # V1.1: the synced RA&Dec
 
     def _homed(self, _argument: str, _well_formed: bool) -> str:
@@ -403,7 +386,7 @@ class Responder:
             return "#"
         if variant == "zero":
             return "0#"
-        return _ok(self.model.homed()) + "#"
+        return char_reply(self.model.homed()) + "#"
 
     def _park(self, _argument: str, _well_formed: bool) -> str | None:
         accepted = self.model.park()
@@ -421,14 +404,14 @@ class Responder:
         if not well_formed:
             return "0"
         try:
-            return _ok(self.model.set_meridian(parse_meridian(argument)))
+            return char_reply(self.model.set_meridian(parse_meridian(argument)))
         except ProtocolError:
             return "0"
 
     def _set_upper_limit(self, argument: str, _well_formed: bool) -> str:
         value = _two_digits(argument)
-        return _ok(value is not None and self.model.set_upper_limit(value))
+        return char_reply(value is not None and self.model.set_upper_limit(value))
 
     def _set_lower_limit(self, argument: str, _well_formed: bool) -> str:
         value = _two_digits(argument)
-        return _ok(value is not None and self.model.set_lower_limit(value))
+        return char_reply(value is not None and self.model.set_lower_limit(value))

@@ -23,8 +23,8 @@ import threading
 import time
 from typing import Any
 
+from ..protocol import RequestFramer
 from .faults import FaultEvent, Faults
-from .framing import MountFramer
 from .model import MountModel
 from .responder import Responder
 
@@ -77,7 +77,7 @@ class _Line:
         self.server = server
         self.id = line_id
         self.peer = peer
-        self.framer = MountFramer()
+        self.framer = RequestFramer()
         self.closed = threading.Event()
         self._replies: queue.Queue[bytes | None] = queue.Queue()
         self._rx_free = 0.0  # when the incoming wire is free again

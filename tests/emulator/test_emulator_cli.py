@@ -147,6 +147,19 @@ def test_cli_serves_tcp_and_control_and_stops_cleanly(start_emulator: type[Emula
     assert emulator.terminate() == 0
 
 
+def test_cli_preset_sets_model_version_and_quirks(start_emulator: type[Emulator]) -> None:
+    emulator = start_emulator("--baud", "0", "--preset", "am5-x2", "--firmware", "1.9.9")
+    client = MountClient(emulator.port())
+    try:
+        assert client.ask(":GVP#") == "AM5#"
+        assert client.ask(":GV#") == "1.9.9#"  # an option overrides the preset's own value
+        assert client.ask(":Gps#") == "#"  # the preset's quirks: :Gps# empty, H at power-up
+        assert "H" in client.ask(":GU#")
+    finally:
+        client.close()
+    assert emulator.terminate() == 0
+
+
 def test_cli_pty_option_prints_a_usable_device(start_emulator: type[Emulator]) -> None:
     serial = pytest.importorskip("serial")
     emulator = start_emulator("--pty", "--baud", "0")

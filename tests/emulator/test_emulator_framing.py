@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from emuclient import MountClient
 
-from alpaca_zwo.emulator.framing import MountFramer
+from alpaca_zwo.protocol import RequestFramer
 
 
 @pytest.mark.parametrize(
@@ -61,7 +61,7 @@ def test_runaway_command_is_dropped(mount: MountClient) -> None:
 
 
 def test_framer_rules() -> None:
-    framer = MountFramer()
+    framer = RequestFramer()
     assert framer.feed(b":SL22:05:09#:Rg0.30:GU#\r\n#junk:GR#:Q") == ["SL22:05:09", "GU", "GR"]
     assert framer.feed(b"#") == ["Q"]
     assert framer.dropped == 1

@@ -10,7 +10,7 @@ import pytest
 from emuclient import MountClient, flags, slew, target_at, wait_slew
 
 from alpaca_zwo import protocol
-from alpaca_zwo.emulator import FirmwareVariant, ManualClock, MountModel
+from alpaca_zwo.emulator import PRESETS, FirmwareVariant, ManualClock, MountModel, preset
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 
 
@@ -127,10 +127,7 @@ def test_gmza_south_azimuth(mount: MountClient) -> None:
     assert mount.ask(":GZ#") == "000*00:00#"
 
 
-@pytest.mark.parametrize(
-    "firmware",
-    [FirmwareVariant(model="AM3", version="1.6.3"), FirmwareVariant(model="AM7", version="2.0.0")],
-)
+@pytest.mark.parametrize("firmware", [preset("am3-1.6.3"), preset("am7-2.0.0")])
 def test_model_and_version(mount: MountClient, firmware: FirmwareVariant) -> None:
     assert mount.ask(":GVP#") == f"{firmware.model}#"
     assert mount.ask(":GV#") == f"{firmware.version}#"
@@ -158,3 +155,31 @@ def test_a_switch_flipped_on_a_running_mount_applies_at_once(mount: MountClient,
 def test_invalid_variant_values_are_rejected(kwargs: dict[str, str]) -> None:
     with pytest.raises(ValueError):
         FirmwareVariant(**kwargs)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_every_preset_describes_itself(name: str) -> None:
+    variant = preset(name)
+    assert variant.name == name and variant.description
+    assert variant.describe().startswith(f"{name}: {variant.model} firmware {variant.version} (")
+    assert variant is not PRESETS[name]  # a copy: flipping a switch never changes the preset
+
+
+def test_the_default_variant_is_the_default_preset() -> None:
+    assert {k: v for k, v in FirmwareVariant().as_dict().items() if k not in ("name", "description")} == {
+        k: v for k, v in preset().as_dict().items() if k not in ("name", "description")}
+    assert preset().quirks() == {}
+
+
+def test_a_preset_with_a_changed_switch_says_so() -> None:
+    variant = preset("am5-x2", gt_mapping="chinese", version="1.9.9")
+    assert variant.name == "am5-x2+custom" and variant.version == "1.9.9"
+    assert variant.quirks()["gt_mapping"] == "chinese" and variant.quirks()["gps_reply"] == "empty"
+    with pytest.raises(ValueError, match="unknown firmware preset"):
+        preset("am9-0.0.1")
+
+
+@pytest.mark.parametrize("firmware", [preset("am5n-1.6.3")])
+def test_the_am5n_preset_answers_as_that_mount(mount: MountClient, firmware: FirmwareVariant) -> None:
+    assert mount.ask(":GVP#") == "AM5N#" and mount.ask(":GV#") == "1.6.3#"
+    assert mount.ask(":GMZA#").startswith("180*00:00&")

@@ -1,0 +1,129 @@
+"""Firmware variants: how real ZWO firmware builds differ, as named, self-describing presets.
+
+Real AM3/AM5/AM5N/AM7 firmware builds disagree on a handful of replies (field notes §5.6, §6): when
+``:GU#`` shows ``H``, the order of the ``:GT#`` digits, what ``:Gps#``, ``:hP#`` and ``:Gh#``
+answer, whether the documented compound ``:SMeq``/``:SMMC`` and custom ``:STR`` rates work, and
+where ``:GMZA#`` counts azimuth from. A :class:`FirmwareVariant` is one such build: its name, the
+model and version it reports and its quirks. The emulator behaves as the variant it is given; the
+config file (``[emulator] preset``), the emulator's ``--preset`` option and the tests pick variants
+by name from :data:`PRESETS`, so a quirk is described once, here.
+
+No project imports: the config layer and the emulator both read this module.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, fields
+from typing import Any
+
+__all__ = [
+    "DEFAULT_PRESET",
+    "GH_REPLIES",
+    "GPS_REPLIES",
+    "GT_MAPPINGS",
+    "HOME_FLAGS",
+    "HP_REPLIES",
+    "MODELS",
+    "PRESETS",
+    "FirmwareVariant",
+    "preset",
+]
+
+MODELS = ("AM3", "AM5", "AM5N", "AM7")
+HOME_FLAGS = ("after_home", "never", "always_at_home")
+GT_MAPPINGS = ("english", "chinese")
+GPS_REPLIES = ("digits", "empty")
+HP_REPLIES = (None, "1#")
+GH_REPLIES = ("empty", "zero", "homed")
+
+#: The switches that are quirks (everything but the identity fields).
+_IDENTITY = ("name", "model", "version", "compile_time", "description")
+
+
+@dataclass
+class FirmwareVariant:
+    """Switches for the behaviours that differ between real firmware builds (field notes §5.6, §6).
+
+    Mutable on purpose: a test may flip one switch on a running model to see how a client copes.
+    """
+
+    model: str = "AM5"  # :GVP#
+    version: str = "1.9.2"  # :GV#
+    compile_time: str = "10:24:36"  # :GVT# (listed in V1.1, unconfirmed on hardware)
+    home_flag: str = "after_home"  # 'H' in :GU#: after_home | never | always_at_home
+    gt_mapping: str = "english"  # :GT# digits: english 1 solar 2 lunar | chinese 1 lunar 2 solar
+    gps_reply: str = "digits"  # :Gps#: digits 0/1/2 | empty '#'
+    hp_reply: str | None = None  # :hP#: None (no reply, v1.8+) | "1#" (1#/0#, seen by PYAM5)
+    gh_reply: str = "empty"  # :Gh#: empty '#' | zero '0#' | homed '1#' after a home, else '0#'
+    compound_goto_sync: bool = False  # False: :SMeq/:SMMC answer e2# as on hardware
+    custom_tracking: bool = False  # False: :STR gets no reply (absent on real firmware)
+    gmza_south_azimuth: bool = False  # True: :GMZA# azimuth from south (AM5N showed 180 at home)
+    name: str = "custom"  # the preset this came from ("custom" when built by hand)
+    description: str = ""  # where this build's behaviour was seen
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Reject a misspelt switch value early instead of silently acting as the default."""
+        choices = {
+            "home_flag": HOME_FLAGS,
+            "gt_mapping": GT_MAPPINGS,
+            "gps_reply": GPS_REPLIES,
+            "hp_reply": HP_REPLIES,
+            "gh_reply": GH_REPLIES,
+        }
+        for name, allowed in choices.items():
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"FirmwareVariant.{name} must be one of {allowed}, not {getattr(self, name)!r}")
+        if self.model not in MODELS:
+            raise ValueError(f"unknown mount model {self.model!r}")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def quirks(self) -> dict[str, Any]:
+        """The switches where this build differs from the default variant (what makes it special)."""
+        baseline = FirmwareVariant()
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if f.name not in _IDENTITY and getattr(self, f.name) != getattr(baseline, f.name)}
+
+    def describe(self) -> str:
+        """One line for logs and ``--list-presets``: name, model, version and quirks."""
+        quirks = ", ".join(f"{k}={v}" for k, v in self.quirks().items()) or "no quirks"
+        return f"{self.name}: {self.model} firmware {self.version} ({quirks})"
+
+
+def _preset(name: str, description: str, **switches: Any) -> FirmwareVariant:
+    return FirmwareVariant(name=name, description=description, **switches)
+
+
+#: Named builds, the first the default. Each quirk cites where it was seen (field notes §0 keys).
+PRESETS: dict[str, FirmwareVariant] = {
+    variant.name: variant
+    for variant in (
+        _preset("am5-1.9.2", "current AM5 firmware: H after a home, :hP# silent, :Gh# empty"),
+        _preset("am5n-1.6.3", "AM5N on 1.6.3: no H even at home, :GMZA# azimuth from south (AM5N notes)",
+                model="AM5N", version="1.6.3", home_flag="never", gmza_south_azimuth=True),
+        _preset("am5-1.8.8", "AM5 on 1.8.8 as PYAM5 saw it: :hP# answers 1#/0#",
+                version="1.8.8", hp_reply="1#"),
+        _preset("am5-x2", "builds seen by X2: H at power-up, :Gps# empty, :Gh# 0 even after homing",
+                home_flag="always_at_home", gps_reply="empty", gh_reply="zero"),
+        _preset("am3-1.6.3", "AM3 reporting 1.6.3", model="AM3", version="1.6.3"),
+        _preset("am7-2.0.0", "AM7 reporting 2.0.0", model="AM7", version="2.0.0"),
+    )
+}
+DEFAULT_PRESET = next(iter(PRESETS))
+
+
+def preset(name: str = DEFAULT_PRESET, **overrides: Any) -> FirmwareVariant:
+    """A fresh copy of preset ``name`` with some switches changed (``model=``, ``version=``, ...)."""
+    try:
+        base = PRESETS[name]
+    except KeyError:
+        raise ValueError(f"unknown firmware preset {name!r}; presets: {', '.join(PRESETS)}") from None
+    variant = dataclasses.replace(base, **overrides)
+    if overrides and any(getattr(variant, k) != getattr(base, k) for k in overrides if k not in _IDENTITY):
+        variant.name = f"{base.name}+custom"
+    return variant
