@@ -44,10 +44,9 @@ from tests.fuzz.alpaca_fuzz import (
     Stats,
     check_consistent,
     exercise,
-    load_device_schema,
-    load_management_schema,
     start_live_server,
 )
+from tests.fuzz.spec_fixes import load_device_schema, load_management_schema
 
 
 def fuzz_operation(operation: Any, mode: GenerationMode, examples: int, seed: int, live: LiveServer,

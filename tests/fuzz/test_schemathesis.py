@@ -3,7 +3,7 @@
 Every telescope and common Device API operation and every Management API operation is fuzzed with
 schema-valid and schema-violating requests (schemathesis' examples, coverage and fuzzing phases).
 Each reply must: never be a 5xx, conform to the official schema (patched only where the schema
-itself is wrong: see ``alpaca_fuzz.py``, SPEC PROBLEM 1-6), and keep the Alpaca rules the schema
+itself is wrong: see ``spec_fixes.py``, SPEC PROBLEM 1-6), and keep the Alpaca rules the schema
 cannot express. About one case in five is sent to a device number or type this server does not
 have, to hold it to the documented 400. Afterwards the server must still serve and the mount's state
 must be coherent, with motion still working.
@@ -27,19 +27,21 @@ from hypothesis import HealthCheck, settings
 from schemathesis import Case
 
 from tests.fuzz.alpaca_fuzz import (
+    LiveServer,
+    Stats,
+    check_consistent,
+    exercise,
+    start_live_server,
+)
+from tests.fuzz.spec_fixes import (
     DEVICE_SPEC,
     MANAGEMENT_SPEC,
     SPEC_SHA256,
-    LiveServer,
-    Stats,
     bound_integer_formats,
-    check_consistent,
     device_spec,
-    exercise,
     load_device_schema,
     load_management_schema,
     spec_sha256,
-    start_live_server,
     upstream_sha256,
 )
 
