@@ -26,6 +26,7 @@ import yaml
 from hypothesis import HealthCheck, settings
 from schemathesis import Case
 
+from alpaca_zwo.alpaca.members import DEVICE_MEMBERS, ValueType, routes
 from tests.fuzz.alpaca_fuzz import (
     LiveServer,
     Stats,
@@ -176,3 +177,37 @@ def test_every_get_error_reply_matches_the_official_schema(server_factory: Any) 
     assert reply.json()["ErrorNumber"] == 0
     connected = _check_every_get(base_url)
     assert connected.get(0x402, 0) == 2 and 0x407 not in connected, connected
+
+
+PUT_SAMPLES = {ValueType.BOOL: "true", ValueType.INT: "0", ValueType.FLOAT: "1.5", ValueType.STR: "zwo:Nope",
+               ValueType.UTCDATE: "2024-01-31T21:05:00.0000000Z"}
+CONNECTION_MEMBERS = ("connect", "connected", "disconnect")
+
+
+def test_every_put_error_reply_matches_the_official_schema(server_factory: Any) -> None:
+    """Disconnected, every PUT fails; a method's error reply has no Value, Action/Command* carry their default."""
+    server = server_factory()
+    base_url = f"http://127.0.0.1:{server.port}"
+    session = requests.Session()
+    members = routes(DEVICE_MEMBERS["telescope"])["PUT"]
+    errors = 0
+    for result in device_schema.get_all_operations():
+        operation = result.ok()
+        path = operation.path.rsplit("/", 1)[-1]
+        if operation.method.upper() != "PUT" or path in CONNECTION_MEMBERS:
+            continue
+        member = members[path]
+        form = {p.name: PUT_SAMPLES[p.type] for p in member.params}
+        response = session.put(f"{base_url}/api/v1/telescope/0/{path}", data={**form, "ClientTransactionID": "9"},
+                               timeout=30)
+        assert response.status_code == 200, (path, response.text)
+        operation.validate_response(response)
+        body = response.json()
+        assert body["ClientTransactionID"] == 9, (path, body)
+        if body["ErrorNumber"]:
+            errors += 1
+            if member.returns is None:
+                assert "Value" not in body, (path, body)
+            else:
+                assert body["Value"] == member.error_value, (path, body)
+    assert errors >= 25
