@@ -33,25 +33,27 @@ def _utc(t: datetime) -> tuple[float, float]:
     return erfa.dtf2d("UTC", t.year, t.month, t.day, t.hour, t.minute, t.second + t.microsecond / 1e6)
 
 
-def _site_args() -> tuple[float, float, float]:
-    return math.radians(SITE.longitude), math.radians(SITE.latitude), SITE.elevation
+def _site_args(site: SiteSettings) -> tuple[float, float, float]:
+    return math.radians(site.longitude), math.radians(site.latitude), site.elevation
 
 
-def reference_to_j2000(ra_hours: float, dec_deg: float, when: datetime) -> tuple[float, float]:
+def reference_to_j2000(ra_hours: float, dec_deg: float, when: datetime,
+                       site: SiteSettings = SITE) -> tuple[float, float]:
     """Apparent topocentric RA/Dec of date (equinox-based) -> ICRS, via erfa.atoc13 with no refraction."""
     utc1, utc2 = _utc(when)
     tt1, tt2 = erfa.taitt(*erfa.utctai(utc1, utc2))
     eo = erfa.eo06a(tt1, tt2)  # CIO RA = equinox RA + eo
     rc, dc = erfa.atoc13("R", erfa.anp(math.radians(ra_hours * 15.0) + eo), math.radians(dec_deg),
-                         utc1, utc2, 0.0, *_site_args(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.55)
+                         utc1, utc2, 0.0, *_site_args(site), 0.0, 0.0, 0.0, 0.0, 0.0, 0.55)
     return math.degrees(rc) / 15.0, math.degrees(dc)
 
 
-def reference_to_apparent(ra_hours: float, dec_deg: float, when: datetime) -> tuple[float, float]:
+def reference_to_apparent(ra_hours: float, dec_deg: float, when: datetime,
+                          site: SiteSettings = SITE) -> tuple[float, float]:
     """ICRS -> apparent topocentric RA/Dec of date, via erfa.atco13 (zero pressure: no refraction)."""
     utc1, utc2 = _utc(when)
     _, _, _, dob, rob, eo = erfa.atco13(math.radians(ra_hours * 15.0), math.radians(dec_deg), 0.0, 0.0, 0.0, 0.0,
-                                        utc1, utc2, 0.0, *_site_args(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.55)
+                                        utc1, utc2, 0.0, *_site_args(site), 0.0, 0.0, 0.0, 0.0, 0.0, 0.55)
     return math.degrees(erfa.anp(rob - eo)) / 15.0, math.degrees(dob)
 
 
