@@ -218,6 +218,8 @@ class AlpacaZwoServer:
             lines.append(f"(listening on all interfaces, port {self.port})")
         if self.discovery is not None:
             lines.append(f"Discovery:    UDP port {self.discovery.port}")
+        if self.stellarium is not None:
+            lines.append(f"Stellarium:   TCP port {self.stellarium.port} ({self.stellarium.equinox})")
         return lines
 
     def stop(self) -> None:
