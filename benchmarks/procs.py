@@ -10,11 +10,9 @@ from __future__ import annotations
 
 import ast
 import contextlib
-import json
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -24,6 +22,8 @@ from pathlib import Path
 from typing import Any
 
 import psutil
+
+from alpaca_zwo.emulator.control import ask
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -118,15 +118,7 @@ class Emulator:
         self.proc = proc
 
     def control(self, command: str) -> dict[str, Any]:
-        with socket.create_connection(("127.0.0.1", self.proc.ports["control"]), timeout=5.0) as sock:
-            sock.sendall(command.encode() + b"\n")
-            data = b""
-            while not data.endswith(b"\n"):
-                chunk = sock.recv(65536)
-                if not chunk:
-                    break
-                data += chunk
-        return json.loads(data)
+        return ask(self.proc.ports["control"], command)
 
     def stats(self) -> dict[str, Any]:
         """Totals over every line since start, stamped with the wall-clock time they were read."""

@@ -12,17 +12,38 @@ from __future__ import annotations
 import ipaddress
 import json
 import logging
+import socket
 import socketserver
 import threading
+from collections.abc import Callable
 from typing import Any
 
+from .faults import Faults
 from .server import EmulatorServer
 
-__all__ = ["ControlServer", "execute"]
+__all__ = ["ControlServer", "ask", "execute"]
 
 _log = logging.getLogger(__name__)
 
 HELP = "stall MS | drop N | garble N | close | outage SECONDS | reboot [SECONDS] | clear | stats | state"
+
+
+#: Fault commands: name -> (what it does with the arguments), each answering ``{"ok": true, "command": name}``.
+_FAULTS: dict[str, Callable[[Faults, list[str]], object]] = {
+    "stall": lambda f, a: f.stall(float(a[0])),
+    "drop": lambda f, a: f.drop_replies(int(a[0]) if a else 1),
+    "garble": lambda f, a: f.garble_replies(int(a[0]) if a else 1),
+    "close": lambda f, a: f.close_connections(),
+    "outage": lambda f, a: f.outage(float(a[0])),
+    "reboot": lambda f, a: f.reboot(float(a[0]) if a else 2.0),
+    "clear": lambda f, a: f.clear(),
+}
+#: Read-outs: name -> (the answer's key, how to read it).
+_READOUTS: dict[str, tuple[str, Callable[[EmulatorServer], object]]] = {
+    "stats": ("stats", lambda s: s.stats()),
+    "state": ("state", lambda s: s.model.snapshot()),
+    "help": ("help", lambda s: HELP),
+}
 
 
 def execute(server: EmulatorServer, line: str) -> dict[str, Any]:
@@ -31,33 +52,34 @@ def execute(server: EmulatorServer, line: str) -> dict[str, Any]:
     if not words:
         return {"ok": False, "error": "empty command", "help": HELP}
     name, args = words[0].lower(), words[1:]
-    faults = server.faults
+    if name in _READOUTS:
+        key, read = _READOUTS[name]
+        return {"ok": True, key: read(server)}
+    fault = _FAULTS.get(name)
+    if fault is None:
+        return {"ok": False, "error": f"unknown command {name!r}", "help": HELP}
     try:
-        if name == "stall":
-            faults.stall(float(args[0]))
-        elif name == "drop":
-            faults.drop_replies(int(args[0]) if args else 1)
-        elif name == "garble":
-            faults.garble_replies(int(args[0]) if args else 1)
-        elif name == "close":
-            faults.close_connections()
-        elif name == "outage":
-            faults.outage(float(args[0]))
-        elif name == "reboot":
-            faults.reboot(float(args[0]) if args else 2.0)
-        elif name == "clear":
-            faults.clear()
-        elif name == "stats":
-            return {"ok": True, "stats": server.stats()}
-        elif name == "state":
-            return {"ok": True, "state": server.model.snapshot()}
-        elif name == "help":
-            return {"ok": True, "help": HELP}
-        else:
-            return {"ok": False, "error": f"unknown command {name!r}", "help": HELP}
+        fault(server.faults, args)
     except (IndexError, ValueError) as exc:
         return {"ok": False, "error": f"bad arguments for {name}: {exc}", "help": HELP}
     return {"ok": True, "command": name}
+
+
+def ask(port: int, command: str, host: str = "127.0.0.1", timeout: float = 5.0) -> dict[str, Any]:
+    """The control client: send one command line to a running emulator's control port, return its answer.
+
+    Used by the tests and the benchmarks, which run the emulator as a separate process.
+    """
+    with socket.create_connection((host, port), timeout=timeout) as sock:
+        sock.sendall(command.encode() + b"\n")
+        data = b""
+        while not data.endswith(b"\n"):
+            chunk = sock.recv(65536)
+            if not chunk:
+                raise ConnectionError(f"the emulator's control port closed before answering {command!r}")
+            data += chunk
+    answer: dict[str, Any] = json.loads(data)
+    return answer
 
 
 class _Handler(socketserver.StreamRequestHandler):

@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-import json
 import os
-import re
-import signal
-import socket
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -15,64 +11,16 @@ from pathlib import Path
 import pytest
 from emuclient import MountClient
 
+from tests.support import EmulatorProcess
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
-class Emulator:
-    """A running ``python -m alpaca_zwo.emulator`` and the endpoints it printed."""
-
-    def __init__(self, *args: str) -> None:
-        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "alpaca_zwo.emulator", "--port", "0", *args],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            env=env,
-            cwd=ROOT,
-        )
-        self.endpoints: dict[str, str] = {}
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:  # the endpoint lines come first and are flushed at once
-            match = re.fullmatch(r"(tcp|pty|control) (\S+)\n", line)
-            if match:
-                self.endpoints[match.group(1)] = match.group(2)
-            if (
-                "tcp" in self.endpoints
-                and ("--control-port" not in args or "control" in self.endpoints)
-                and ("--pty" not in args or "pty" in self.endpoints)
-            ):
-                break
-        else:
-            raise AssertionError(f"emulator did not start: {self.proc.stderr.read() if self.proc.stderr else ''}")
-
-    def port(self, name: str = "tcp") -> int:
-        return int(self.endpoints[name].rsplit(":", 1)[1])
-
-    def control(self, command: str) -> dict[str, object]:
-        with socket.create_connection(("127.0.0.1", self.port("control")), timeout=3.0) as sock:
-            sock.sendall(command.encode() + b"\n")
-            data = b""
-            while not data.endswith(b"\n"):
-                chunk = sock.recv(65536)
-                assert chunk, "control connection closed"
-                data += chunk
-        return json.loads(data)
-
-    def terminate(self) -> int:
-        self.proc.send_signal(signal.SIGTERM)
-        try:
-            return self.proc.wait(timeout=10.0)
-        finally:
-            if self.proc.poll() is None:
-                self.proc.kill()
-
-
 @pytest.fixture
-def start_emulator() -> Iterator[type[Emulator]]:
-    started: list[Emulator] = []
+def start_emulator() -> Iterator[type[EmulatorProcess]]:
+    started: list[EmulatorProcess] = []
 
-    class Tracked(Emulator):
+    class Tracked(EmulatorProcess):
         def __init__(self, *args: str) -> None:
             super().__init__(*args)
             started.append(self)
@@ -84,7 +32,7 @@ def start_emulator() -> Iterator[type[Emulator]]:
             emulator.proc.wait(5.0)
 
 
-def test_cli_serves_tcp_and_control_and_stops_cleanly(start_emulator: type[Emulator]) -> None:
+def test_cli_serves_tcp_and_control_and_stops_cleanly(start_emulator: type[EmulatorProcess]) -> None:
     emulator = start_emulator(
         "--control-port",
         "0",
@@ -147,7 +95,7 @@ def test_cli_serves_tcp_and_control_and_stops_cleanly(start_emulator: type[Emula
     assert emulator.terminate() == 0
 
 
-def test_cli_preset_sets_model_version_and_quirks(start_emulator: type[Emulator]) -> None:
+def test_cli_preset_sets_model_version_and_quirks(start_emulator: type[EmulatorProcess]) -> None:
     emulator = start_emulator("--baud", "0", "--preset", "am5-x2", "--firmware", "1.9.9")
     client = MountClient(emulator.port())
     try:
@@ -160,7 +108,7 @@ def test_cli_preset_sets_model_version_and_quirks(start_emulator: type[Emulator]
     assert emulator.terminate() == 0
 
 
-def test_cli_pty_option_prints_a_usable_device(start_emulator: type[Emulator]) -> None:
+def test_cli_pty_option_prints_a_usable_device(start_emulator: type[EmulatorProcess]) -> None:
     serial = pytest.importorskip("serial")
     emulator = start_emulator("--pty", "--baud", "0")
     path = emulator.endpoints["pty"]

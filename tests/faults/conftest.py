@@ -17,7 +17,8 @@ from alpaca_zwo.mount import Mount
 from alpaca_zwo.server import AlpacaZwoServer, Overrides
 from alpaca_zwo.telescope import Telescope
 from tests.conftest import ServerFactory, make_settings
-from tests.faults.harness import AlpacaClient, CallLog, MountRecorder, TraceAudit, wait_until
+from tests.faults.harness import MountRecorder, TraceAudit
+from tests.support import AlpacaClient, CallLog, wait_until
 
 #: The ClientID the scenario's main client (an imaging program) uses.
 MAIN_ID = 4242

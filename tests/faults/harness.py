@@ -12,7 +12,6 @@ would see ("Telescope connection lost"), whatever the server eventually answers.
 
 from __future__ import annotations
 
-import itertools
 import os
 import re
 import threading
@@ -24,34 +23,17 @@ from datetime import datetime, timezone
 from typing import Any
 
 import pytest
-import requests
 
 from alpaca_zwo import protocol
 from alpaca_zwo._exceptions import MountReplyError, ProtocolError
 from alpaca_zwo.link import TraceEntry
+from tests.support import AlpacaClient, Call, wait_until
+from tests.support.alpaca import HANG_CUTOFF_S
 
-#: PHD2's status connection (clients.md §2.1): the strictest timeout any client puts on a GET.
-GET_LIMIT_S = 3.0
-#: N.I.N.A. (ASCOM .NET client, clients.md §0.1) and PHD2's control connection.
-PUT_LIMIT_S = 5.0
-#: PHD2 allows a PulseGuide PUT its duration plus this (clients.md §2.1).
-PULSE_MARGIN_S = 5.0
+__all__ = ["wait_until"]  # re-exported for tests/bridges/stellarium_rig.py
+
 #: The issue's promise: the link is back within this long after the mount is.
 RECONNECT_LIMIT_S = 5.0
-#: Requests are allowed to run this long before the test client itself gives up, so that a
-#: hang is measured (and reported with its length) rather than cut off at the client's limit.
-HANG_CUTOFF_S = 40.0
-
-#: Times in reports are shown relative to this (the test session's start).
-EPOCH = time.monotonic()
-
-_ctids = itertools.count(1)
-_ctid_lock = threading.Lock()
-
-
-def next_ctid() -> int:
-    with _ctid_lock:
-        return next(_ctids)
 
 
 class Verdict:
@@ -73,18 +55,6 @@ class Verdict:
         if self.failures:
             pytest.fail(f"{self.scenario}: {len(self.failures)} broken promise(s):\n  " + "\n  ".join(self.failures),
                         pytrace=False)
-
-
-def wait_until(condition: Callable[[], Any], timeout: float, what: str, interval: float = 0.05) -> Any:
-    """Poll ``condition`` until it returns something truthy; fail the test naming ``what`` at the deadline."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = condition()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            pytest.fail(f"timed out after {timeout:.1f} s waiting for {what}")
-        time.sleep(interval)
 
 
 _ALPACA_TIME = re.compile(r"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d)(?:\.(\d+))?Z?")
@@ -111,179 +81,6 @@ def rss_bytes(pid: int | None = None) -> int:
     except OSError:
         return 0
     return 0
-
-
-# --- HTTP -----------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Call:
-    """One Alpaca request as the client saw it."""
-
-    client_id: int
-    verb: str
-    member: str
-    params: dict[str, Any]
-    started: float  # time.monotonic() when sent
-    elapsed: float
-    status: int | None  # None: no HTTP answer at all
-    ctid: int
-    echoed_ctid: int | None
-    error_number: int | None
-    error_message: str
-    value: Any
-    exception: str = ""
-
-    @property
-    def ok(self) -> bool:
-        return self.status == 200 and self.error_number == 0
-
-    @property
-    def limit(self) -> float:
-        """How long the strictest real client waits for this request."""
-        if self.verb == "GET":
-            return GET_LIMIT_S
-        if self.member == "pulseguide":
-            return int(self.params.get("Duration", 0)) / 1000.0 + PULSE_MARGIN_S
-        return PUT_LIMIT_S
-
-    def describe(self) -> str:
-        shown = ", ".join(f"{k}={v}" for k, v in self.params.items())
-        outcome = self.exception or f"HTTP {self.status} err 0x{self.error_number or 0:X} {self.error_message!r}"
-        return (f"{self.verb} {self.member}({shown}) by #{self.client_id} at t+{self.started - EPOCH:.2f}: "
-                f"{outcome} in {self.elapsed:.3f} s")
-
-
-class CallLog:
-    """Every request any test client made, for the end-of-test health verdict.
-
-    ``keep=False`` (the soak) keeps only counters and the problems found, judged as each call
-    arrives against ``allowed_errors``, so the instrument itself does not grow with the run.
-    """
-
-    def __init__(self, *, keep: bool = True, allowed_errors: Iterable[int] = ()) -> None:
-        self._calls: list[Call] = []
-        self._lock = threading.Lock()
-        self._keep = keep
-        self._allowed = set(allowed_errors)
-        self._problems: list[str] = []
-        self.count = 0
-        self.errors: dict[int, int] = {}
-        self._slowest: dict[str, Call] = {}
-
-    def add(self, call: Call) -> None:
-        with self._lock:
-            self.count += 1
-            if call.error_number:
-                self.errors[call.error_number] = self.errors.get(call.error_number, 0) + 1
-            slowest = self._slowest.get(call.verb)
-            if slowest is None or call.elapsed > slowest.elapsed:
-                self._slowest[call.verb] = call
-            if self._keep:
-                self._calls.append(call)
-            else:
-                self._problems.extend(_problems_of(call, self._allowed))
-
-    def calls(self, since: float = 0.0, until: float = float("inf")) -> list[Call]:
-        with self._lock:
-            return [c for c in self._calls if since <= c.started <= until]
-
-    def problems(self, *, since: float = 0.0, allowed_errors: Iterable[int] = ()) -> list[str]:
-        """Protocol-level failures: no answer, 5xx or other non-200, CTID not echoed, slower than the clients allow.
-
-        ``allowed_errors`` are ASCOM error numbers the scenario expects (a command refused during an
-        outage is the right answer, not a protocol error); any other non-zero ErrorNumber is reported.
-        """
-        if not self._keep:
-            with self._lock:
-                return list(self._problems)
-        allowed = set(allowed_errors)
-        found: list[str] = []
-        for call in self.calls(since):
-            found.extend(_problems_of(call, allowed))
-        return found
-
-    def slowest(self, verb: str) -> Call | None:
-        with self._lock:
-            return self._slowest.get(verb)
-
-
-def _problems_of(call: Call, allowed: set[int]) -> list[str]:
-    found = []
-    if call.status is None:
-        found.append(f"no HTTP answer: {call.describe()}")
-    elif call.status != 200:
-        found.append(f"HTTP {call.status}: {call.describe()}")
-    elif call.echoed_ctid != call.ctid:
-        found.append(f"ClientTransactionID {call.ctid} answered as {call.echoed_ctid}: {call.describe()}")
-    elif call.error_number not in (0, *allowed):
-        found.append(f"unexpected ASCOM error: {call.describe()}")
-    if call.elapsed > call.limit:
-        found.append(f"slower than the {call.limit:.1f} s clients wait: {call.describe()}")
-    return found
-
-
-class AlpacaClient:
-    """A minimal Alpaca client over one keep-alive connection, timing and logging every request."""
-
-    def __init__(self, port: int, client_id: int, log: CallLog | None = None, *, host: str = "127.0.0.1",
-                 device: int = 0, auth: tuple[str, str] | None = None) -> None:
-        self.base = f"http://{host}:{port}/api/v1/telescope/{device}/"
-        self.client_id = client_id
-        self.log = log if log is not None else CallLog()
-        self.http = requests.Session()
-        if auth is not None:
-            self.http.auth = auth
-
-    def close(self) -> None:
-        self.http.close()
-
-    def _call(self, verb: str, member: str, params: dict[str, Any]) -> Call:
-        ctid = next_ctid()
-        fields = {"ClientID": self.client_id, "ClientTransactionID": ctid, **params}
-        started = time.monotonic()
-        status = echoed = number = None
-        message = exception = ""
-        value: Any = None
-        try:
-            if verb == "GET":
-                response = self.http.get(self.base + member, params=fields, timeout=HANG_CUTOFF_S)
-            else:
-                response = self.http.put(self.base + member, data=fields, timeout=HANG_CUTOFF_S)
-            status = response.status_code
-            if status == 200:
-                body = response.json()
-                echoed = body.get("ClientTransactionID")
-                number = body.get("ErrorNumber")
-                message = body.get("ErrorMessage") or ""
-                value = body.get("Value")
-            else:
-                message = response.text[:200]
-        except (requests.RequestException, ValueError) as exc:
-            exception = f"{type(exc).__name__}: {exc}"
-        call = Call(self.client_id, verb, member, params, started, time.monotonic() - started, status, ctid,
-                    echoed, number, message, value, exception)
-        self.log.add(call)
-        return call
-
-    def get(self, member: str, **params: Any) -> Call:
-        return self._call("GET", member, params)
-
-    def put(self, member: str, **params: Any) -> Call:
-        return self._call("PUT", member, params)
-
-    def value(self, member: str, **params: Any) -> Any:
-        call = self.get(member, **params)
-        assert call.ok, call.describe()
-        return call.value
-
-    def command(self, member: str, **params: Any) -> Call:
-        call = self.put(member, **params)
-        assert call.ok, call.describe()
-        return call
-
-    def device_state(self) -> dict[str, Any]:
-        return {item["Name"]: item["Value"] for item in self.value("devicestate")}
 
 
 def is_clear_driver_error(call: Call) -> bool:

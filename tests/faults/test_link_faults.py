@@ -22,8 +22,6 @@ from alpaca_zwo.sky import SIDEREAL_DEG_S
 from tests.faults.conftest import MAIN_ID, Rig, RigFactory
 from tests.faults.harness import (
     RECONNECT_LIMIT_S,
-    AlpacaClient,
-    Call,
     Monitor,
     MountExchange,
     Sample,
@@ -31,8 +29,8 @@ from tests.faults.harness import (
     is_clear_driver_error,
     parse_alpaca_time,
     report,
-    wait_until,
 )
+from tests.support import AlpacaClient, Call, wait_until
 
 #: A reading taken just before a fault may still be published by the poll cycle in flight.
 IN_FLIGHT_S = 0.5

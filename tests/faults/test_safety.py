@@ -17,7 +17,8 @@ import pytest
 from alpaca_zwo import sky
 from alpaca_zwo.config import LimitSettings, SafetySettings, load_settings
 from tests.faults.conftest import RigFactory
-from tests.faults.harness import RECONNECT_LIMIT_S, AlpacaClient, Verdict, report, wait_until
+from tests.faults.harness import RECONNECT_LIMIT_S, Verdict, report
+from tests.support import AlpacaClient, wait_until
 
 WATCHDOG_S = 2.0
 #: The supervisor looks every 0.1 s; the stop command then needs one exchange.

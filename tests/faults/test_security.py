@@ -23,7 +23,9 @@ from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.web import CSRF_HEADER
 from tests.conftest import ServerFactory, make_settings
 from tests.faults.conftest import RigFactory
-from tests.faults.harness import GET_LIMIT_S, AlpacaClient, report
+from tests.faults.harness import report
+from tests.support import AlpacaClient
+from tests.support.alpaca import GET_LIMIT_S
 
 TIMEOUT = 10
 SECRETS = (b"[project]", b"root:", b"def setup_routes", b"import ", b"[server]", b"basic_auth")

@@ -8,129 +8,55 @@ nobody stops it, exactly as a real one does, so a still mount after SIGTERM is t
 
 from __future__ import annotations
 
-import json
-import os
-import queue
-import re
 import signal
-import socket
 import subprocess
 import sys
-import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
 
 import pytest
 
-from tests.faults.harness import AlpacaClient, Verdict, report, wait_until
+from tests.faults.harness import Verdict, report
+from tests.support import AlpacaClient, EmulatorProcess, wait_until
+from tests.support.emulator import ENV, OutputLines
 
-START_TIMEOUT_S = 20.0
 EXIT_TIMEOUT_S = 30.0
-ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
-
-
-class _Lines:
-    """Lines of a child's stdout, readable with a deadline (a blocking readline could hang the test)."""
-
-    def __init__(self, stream: IO[str]) -> None:
-        self.seen: list[str] = []
-        self._queue: queue.Queue[str | None] = queue.Queue()
-        threading.Thread(target=self._pump, args=(stream,), daemon=True).start()
-
-    def _pump(self, stream: IO[str]) -> None:
-        for line in stream:
-            self._queue.put(line.rstrip("\n"))
-        self._queue.put(None)
-
-    def expect(self, pattern: str, timeout: float = START_TIMEOUT_S) -> re.Match[str]:
-        deadline = time.monotonic() + timeout
-        regex = re.compile(pattern)
-        while True:
-            for line in self.seen:
-                match = regex.search(line)
-                if match:
-                    return match
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                pytest.fail(f"no line matching {pattern!r} within {timeout} s; saw {self.seen}")
-            try:
-                line = self._queue.get(timeout=remaining)
-            except queue.Empty:
-                continue
-            if line is None:
-                pytest.fail(f"the process ended before printing {pattern!r}; saw {self.seen}")
-            self.seen.append(line)
-
-
-@dataclass
-class Emulator:
-    process: subprocess.Popen[str]
-    tcp_port: int
-    control_port: int
-
-    def control(self, command: str) -> dict[str, Any]:
-        with socket.create_connection(("127.0.0.1", self.control_port), timeout=5) as sock:
-            sock.sendall(command.encode() + b"\n")
-            data = b""
-            while not data.endswith(b"\n"):
-                chunk = sock.recv(65536)
-                if not chunk:
-                    break
-                data += chunk
-        answer = json.loads(data)
-        assert answer["ok"], answer
-        return answer
-
-    def state(self) -> dict[str, Any]:
-        return self.control("state")["state"]
 
 
 @pytest.fixture
-def emulator() -> Iterator[Emulator]:
+def emulator() -> Iterator[EmulatorProcess]:
     """A separate emulated mount (its own process), unpaced, at real-time speed."""
-    process = subprocess.Popen(
-        [sys.executable, "-m", "alpaca_zwo.emulator", "--port", "0", "--control-port", "0", "--baud", "0"],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=ENV)
+    process = EmulatorProcess("--control-port", "0", "--baud", "0")
     try:
-        assert process.stdout is not None
-        lines = _Lines(process.stdout)
-        tcp = int(lines.expect(r"^tcp 127\.0\.0\.1:(\d+)").group(1))
-        control = int(lines.expect(r"^control 127\.0\.0\.1:(\d+)").group(1))
-        yield Emulator(process, tcp, control)
+        yield process
     finally:
         process.terminate()
-        try:
-            process.wait(10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait(10)
 
 
 @dataclass
 class Server:
     process: subprocess.Popen[str]
     port: int
-    lines: _Lines
+    lines: OutputLines
     log_path: Path
 
     def log(self) -> str:
         return self.log_path.read_text(errors="replace")
 
 
-def _start_server(tmp_path: Path, emulator: Emulator, on_shutdown: str) -> Server:
+def _start_server(tmp_path: Path, emulator: EmulatorProcess, on_shutdown: str) -> Server:
     config = tmp_path / "config.toml"
     config.write_text(f'[server]\nmdns = false\n\n[safety]\non_shutdown = "{on_shutdown}"\n')
     log_path = tmp_path / "server.log"
     with open(log_path, "w") as log_file:
         process = subprocess.Popen(
             [sys.executable, "-m", "alpaca_zwo", "--port", "0", "--discovery-port", "0", "--config", str(config),
-             "--host", "127.0.0.1", "--device", f"socket://127.0.0.1:{emulator.tcp_port}", "--log-level", "INFO"],
+             "--host", "127.0.0.1", "--device", f"socket://127.0.0.1:{emulator.port()}", "--log-level", "INFO"],
             stdout=subprocess.PIPE, stderr=log_file, text=True, env=ENV)
     assert process.stdout is not None
-    lines = _Lines(process.stdout)
+    lines = OutputLines(process.stdout)
     port = int(lines.expect(r"Alpaca API:\s+http://127\.0\.0\.1:(\d+)/").group(1))
     return Server(process, port, lines, log_path)
 
@@ -146,7 +72,7 @@ def servers() -> Iterator[list[Server]]:
             server.process.wait(10)
 
 
-def _start_moving(server: Server, emulator: Emulator) -> AlpacaClient:
+def _start_moving(server: Server, emulator: EmulatorProcess) -> AlpacaClient:
     client = AlpacaClient(server.port, 99)
     client.command("connected", Connected="true")
     client.command("moveaxis", Axis=0, Rate=2.0)
@@ -167,7 +93,7 @@ def _stop(server: Server, sig: signal.Signals) -> tuple[int, float]:
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "Ctrl-C"])
-def test_shutdown_stops_manual_motion(tmp_path: Path, emulator: Emulator, servers: list[Server],
+def test_shutdown_stops_manual_motion(tmp_path: Path, emulator: EmulatorProcess, servers: list[Server],
                                       sig: signal.Signals) -> None:
     server = _start_server(tmp_path, emulator, "stop")
     servers.append(server)
@@ -187,7 +113,7 @@ def test_shutdown_stops_manual_motion(tmp_path: Path, emulator: Emulator, server
     verdict.conclude()
 
 
-def test_shutdown_parks_when_configured(tmp_path: Path, emulator: Emulator, servers: list[Server]) -> None:
+def test_shutdown_parks_when_configured(tmp_path: Path, emulator: EmulatorProcess, servers: list[Server]) -> None:
     server = _start_server(tmp_path, emulator, "park")
     servers.append(server)
     verdict = Verdict("SIGTERM with on_shutdown = park")
@@ -209,7 +135,8 @@ def test_shutdown_parks_when_configured(tmp_path: Path, emulator: Emulator, serv
     verdict.conclude()
 
 
-def test_a_killed_server_leaves_the_mount_moving(tmp_path: Path, emulator: Emulator, servers: list[Server]) -> None:
+def test_a_killed_server_leaves_the_mount_moving(tmp_path: Path, emulator: EmulatorProcess,
+                                                 servers: list[Server]) -> None:
     """Control experiment: SIGKILL gives the server no chance, and the emulated mount keeps going."""
     server = _start_server(tmp_path, emulator, "stop")
     servers.append(server)

@@ -23,16 +23,8 @@ from collections.abc import Callable, Iterator
 from alpaca_zwo import sky
 from alpaca_zwo.config import EmulatorSettings
 from tests.faults.conftest import Rig, RigFactory
-from tests.faults.harness import (
-    AlpacaClient,
-    CallLog,
-    TraceAudit,
-    Verdict,
-    parse_alpaca_time,
-    report,
-    rss_bytes,
-    wait_until,
-)
+from tests.faults.harness import TraceAudit, Verdict, parse_alpaca_time, report, rss_bytes
+from tests.support import AlpacaClient, CallLog, wait_until
 
 SOAK_S = float(os.environ.get("ALPACA_ZWO_SOAK_S", "45"))
 SPEED = float(os.environ.get("ALPACA_ZWO_SOAK_SPEED", "640"))
