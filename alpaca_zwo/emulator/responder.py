@@ -57,6 +57,11 @@ def _two_digits(argument: str) -> int | None:
     return None
 
 
+def _version(text: str) -> tuple[int, ...]:
+    """``1.9.2`` -> (1, 9, 2); non-digits in a part are ignored, so ``1.2.4b`` compares as 1.2.4."""
+    return tuple(int("".join(ch for ch in part if ch.isdigit()) or 0) for part in text.split("."))
+
+
 class Responder:
     """Answers request bodies (the text between ``:`` and ``#``) from a :class:`MountModel`.
 
@@ -166,8 +171,8 @@ class Responder:
             "Spu": lambda a, w: char_reply(m.unpark()),
             "Gps": self._park_status,
             # Meridian and limits
-            "STa": self._set_meridian,
-            "GTa": lambda a, w: format_meridian(m.meridian()) + "#",
+            "STa": self._meridian_firmware(self._set_meridian),
+            "GTa": self._meridian_firmware(lambda a, w: format_meridian(m.meridian()) + "#"),
             "SLE": self._always_one(lambda: m.set_limits_enabled(True)),
             "SLD": self._always_one(lambda: m.set_limits_enabled(False)),
             "GLC": lambda a, w: char_reply(m.limits_enabled()) + "#",
@@ -212,6 +217,17 @@ class Responder:
             return None
 
         return handler
+
+    def _meridian_firmware(self, handler: Handler) -> Handler:
+        """:STa/:GTa exist only from firmware 1.2.4 (field notes §5.6, INDIGO); older builds answer
+        nothing, as for any command they do not know (field notes §2.9)."""
+
+        def gated(argument: str, well_formed: bool) -> str | None:
+            if _version(self.model.firmware.version) < (1, 2, 4):
+                return None
+            return handler(argument, well_formed)
+
+        return gated
 
     def _buzzer(self, argument: str, well_formed: bool) -> None:
         if well_formed:
