@@ -25,6 +25,7 @@ from tests.bridges.stellarium_rig import (
     separation_arcsec,
     wait_until,
 )
+from tests.conftest import ServerFactory
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -199,3 +200,58 @@ def test_conversions_match_erfa_by_another_route(seed: int) -> None:
         assert separation_arcsec(*j2000_to_apparent(ra, dec, when, SITE), *reference_to_apparent(ra, dec, when)) < 0.01
         back = apparent_to_j2000(*j2000_to_apparent(ra, dec, when, SITE), when, SITE)
         assert separation_arcsec(*back, ra, dec) < 0.001
+
+
+def test_config_section_is_checked_like_the_others() -> None:
+    from alpaca_zwo._exceptions import ConfigError
+    from alpaca_zwo.config import Settings, settings_from_dict
+
+    assert Settings().stellarium.enabled is False and Settings().stellarium.port == 10001
+    assert settings_from_dict({"stellarium": {"equinox": "jnow"}}).stellarium.equinox == "JNow"
+    with pytest.raises(ConfigError) as info:
+        settings_from_dict({"stellarium": {"equinox": "B1950", "port": 70000, "enabeld": True}}, "f.toml")
+    message = str(info.value)
+    assert "stellarium.equinox: must be one of 'J2000', 'JNow'" in message
+    assert "stellarium.port: must be between 0 and 65535" in message
+    assert "did you mean 'enabled'" in message
+
+
+def test_off_by_default(server_factory: ServerFactory) -> None:
+    server = server_factory()
+    assert server.stellarium is None
+    assert not any(line.startswith("Stellarium") for line in server.urls())
+
+
+def test_command_line_option_turns_it_on_for_the_run(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+
+    config = tmp_path / "config.toml"
+    config.write_text('[site]\nlatitude = 51.4769\nlongitude = -0.0005\n[emulator]\nspeed = 1.0\n')
+    proc = subprocess.Popen([sys.executable, "-m", "alpaca_zwo", "--config", str(config), "--host", "127.0.0.1",
+                             "--port", "0", "--discovery-port", "0", "--stellarium-port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        assert proc.stdout is not None
+        port = None
+        deadline = time.monotonic() + 30.0
+        while port is None and time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            if not line:
+                break
+            if line.strip().startswith("Stellarium:"):
+                port = int(line.split("TCP port")[1].split()[0])
+        assert port, "no Stellarium line among the start-up lines"
+        client = StellariumClient(port)
+        try:
+            assert client.read_position(timeout=20.0).status == 0  # Stellarium alone connects the mount
+        finally:
+            client.close()
+        from alpaca_zwo.config import load_settings
+
+        saved = load_settings(config).stellarium
+        assert saved.enabled is False, "the option is for this run only and must not be saved"
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 0
