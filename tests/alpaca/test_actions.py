@@ -29,6 +29,7 @@ from alpaca_zwo.config import EmulatorSettings, load_settings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.protocol import MeridianSettings, MountMode
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.store import SettingsStore
 from tests.conftest import ServerFactory, make_settings
 
 README = Path(__file__).resolve().parents[2] / "README.md"
@@ -77,6 +78,23 @@ def rig(server_factory: ServerFactory) -> Iterator[Rig]:
     rig.scope.Connected = True
     yield rig
     rig.scope.Connected = False
+
+
+@pytest.fixture(scope="module")
+def shared_rig(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Rig]:
+    """One connected server for the refusal tests, which change nothing (and check that they do not)."""
+    store = SettingsStore(make_settings(emulator=EmulatorSettings(speed=1.0, baud=0)),
+                          tmp_path_factory.mktemp("actions") / "config.toml")
+    server = AlpacaZwoServer(store)
+    server.start()
+    try:
+        model = server.emulators[0].model
+        assert model is not None
+        rig = Rig(server, AlpycaTelescope(f"127.0.0.1:{server.port}", 0), model)
+        rig.scope.Connected = True
+        yield rig
+    finally:
+        server.stop()
 
 
 def wait_for(predicate: Callable[[], bool], timeout: float, what: str) -> None:
@@ -262,7 +280,8 @@ def _emulator_settings(model: MountModel) -> tuple[object, ...]:
 
 
 @pytest.mark.parametrize(("name", "parameters"), BAD_PARAMETERS)
-def test_bad_parameters_are_invalid_value_and_nothing_is_sent(rig: Rig, name: str, parameters: str) -> None:
+def test_bad_parameters_are_invalid_value_and_nothing_is_sent(shared_rig: Rig, name: str, parameters: str) -> None:
+    rig = shared_rig
     before = _emulator_settings(rig.model)
     limits = rig.server.settings.limits
     saved = rig.server.store.path.read_text(encoding="utf-8") if rig.server.store.path.exists() else ""
@@ -277,13 +296,15 @@ def test_bad_parameters_are_invalid_value_and_nothing_is_sent(rig: Rig, name: st
         assert rig.server.store.path.read_text(encoding="utf-8") == saved
 
 
-def test_unknown_names_are_action_not_implemented(rig: Rig) -> None:
+def test_unknown_names_are_action_not_implemented(shared_rig: Rig) -> None:
+    rig = shared_rig
     for name in ("zwo:Nope", "BuzzerVolume", "zwo:BuzzerVolumes", "", "zwo:"):
         with pytest.raises(ActionNotImplementedException):
             rig.action(name, "{}")
 
 
-def test_names_match_case_insensitively(rig: Rig) -> None:
+def test_names_match_case_insensitively(shared_rig: Rig) -> None:
+    rig = shared_rig
     rig.model.set_buzzer(1)
     for name in ("zwo:buzzervolume", "ZWO:BUZZERVOLUME", "Zwo:BuzzerVolume"):
         assert rig.action(name)["volume"] == 1
@@ -291,7 +312,8 @@ def test_names_match_case_insensitively(rig: Rig) -> None:
 
 
 @pytest.mark.parametrize("parameters", [None, "", "{}", "  ", " {} "])
-def test_empty_parameters_read(rig: Rig, parameters: str | None) -> None:
+def test_empty_parameters_read(shared_rig: Rig, parameters: str | None) -> None:
+    rig = shared_rig
     rig.model.set_buzzer(2)
     assert rig.action("zwo:BuzzerVolume", parameters) == {"volume": 2, "name": "high"}
 
