@@ -147,7 +147,7 @@ class ZwoPortBridge:
         with self._lock:
             programs = list(self._programs.values())
         for program in programs:
-            _shutdown(program.sock)
+            _shutdown(program.sock, close=False)  # its thread wakes up, cleans up and closes it
         for program in programs:
             if program.thread is not None:
                 program.thread.join(timeout=5)
@@ -333,8 +333,9 @@ class ZwoPortBridge:
         program.session.moved_axes.clear()
 
 
-def _shutdown(sock: socket.socket) -> None:
-    """Close a program's socket so its blocked recv returns at once."""
+def _shutdown(sock: socket.socket, close: bool = True) -> None:
+    """Shut a program's socket down so its blocked recv returns at once; close it unless its thread will."""
     with contextlib.suppress(OSError):
         sock.shutdown(socket.SHUT_RDWR)
-    sock.close()
+    if close:
+        sock.close()
