@@ -62,6 +62,10 @@ Reply = dict[str, Any]
 # ================================================================================================
 
 
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
 def _integer(low: int, high: int) -> Callable[[object], int]:
     def check(value: object) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
@@ -73,8 +77,7 @@ def _integer(low: int, high: int) -> Callable[[object], int]:
 
 def _number(low: float, high: float) -> Callable[[object], float]:
     def check(value: object) -> float:
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-        if not ok or not low <= value <= high:  # type: ignore[operator]
+        if not _is_number(value) or not low <= value <= high:  # type: ignore[operator]
             raise ValueError(f"must be a number from {low:g} to {high:g}, got {json.dumps(value)}")
         return float(value)  # type: ignore[arg-type]
 
@@ -98,9 +101,11 @@ def _choice(*names: str) -> Callable[[object], str]:
 
 def _points(value: object) -> list[list[float]]:
     """The shape only; ranges and duplicates are the configuration's own rules (checked on save)."""
-    if not isinstance(value, list) or not all(isinstance(p, list) and len(p) == 2 for p in value):
-        raise ValueError("must be an array of [azimuth, altitude] pairs in degrees, e.g. [[0, 10], [180, 25]]")
-    return [[_number(-math.inf, math.inf)(az), _number(-math.inf, math.inf)(alt)] for az, alt in value]
+    if not isinstance(value, list) or not all(
+            isinstance(p, list) and len(p) == 2 and all(_is_number(x) for x in p) for p in value):
+        raise ValueError("must be an array of [azimuth, altitude] number pairs in degrees, "
+                         "e.g. [[0, 10], [180, 25]]")
+    return [[float(az), float(alt)] for az, alt in value]
 
 
 @dataclass(frozen=True)
