@@ -26,34 +26,32 @@ from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.store import SettingsStore
 from alpaca_zwo.web import CSRF_HEADER, setup_routes, static_dir
 from tests.conftest import make_settings
+from tests.support import AlpacaClient, wait_until
 
 HEADERS = {CSRF_HEADER: "1", "Content-Type": "application/json"}
 TIMEOUT = 10
 
 
-class Client:
-    """The page's API and the Alpaca API of one server, as plain requests."""
+class Client(AlpacaClient):
+    """The page's API and the Alpaca API of one server: the shared Alpaca client plus the page's calls."""
 
     def __init__(self, base: str, client_id: int = 77) -> None:
-        self.base = base
-        self.api = f"{base}/setup/api/telescope/0"
-        self.client_id = client_id
-        self.http = requests.Session()
+        super().__init__(base, client_id, timeout=TIMEOUT, call_timeout=TIMEOUT)
+        self.api = f"{self.base}/setup/api/telescope/0"
 
-    # -- setup API ---------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        r = self.http.get(f"{self.api}/status", timeout=TIMEOUT)
+        r = self.session.get(f"{self.api}/status", timeout=TIMEOUT)
         assert r.status_code == 200, r.text
         return r.json()
 
     def settings(self) -> dict[str, Any]:
-        r = self.http.get(f"{self.api}/settings", timeout=TIMEOUT)
+        r = self.session.get(f"{self.api}/settings", timeout=TIMEOUT)
         assert r.status_code == 200, r.text
         return r.json()
 
     def post(self, path: str, body: object = None, headers: dict[str, str] | None = None) -> requests.Response:
-        return self.http.post(f"{self.base}{path}", json=body if body is not None else {},
-                              headers=headers if headers is not None else HEADERS, timeout=TIMEOUT)
+        return self.session.post(f"{self.base}{path}", json=body if body is not None else {},
+                                 headers=headers if headers is not None else HEADERS, timeout=TIMEOUT)
 
     def action(self, name: str, body: object = None) -> dict[str, Any]:
         r = self.post(f"/setup/api/telescope/0/action/{name}", body)
@@ -64,32 +62,6 @@ class Client:
         r = self.post("/setup/api/telescope/0/settings", body)
         assert r.status_code == 200, r.text
         return r.json()
-
-    # -- Alpaca API ----------------------------------------------------------------------------
-    def get(self, member: str, **params: object) -> Any:
-        r = self.http.get(f"{self.base}/api/v1/telescope/0/{member}",
-                          params={"ClientID": self.client_id, **params}, timeout=TIMEOUT)
-        body = r.json()
-        assert body["ErrorNumber"] == 0, body
-        return body["Value"]
-
-    def put(self, member: str, **params: object) -> None:
-        r = self.http.put(f"{self.base}/api/v1/telescope/0/{member}",
-                          data={"ClientID": self.client_id, **params}, timeout=TIMEOUT)
-        body = r.json()
-        assert body["ErrorNumber"] == 0, body
-
-
-def wait_for(condition: Callable[[], Any], timeout: float = 30.0, what: str = "condition") -> Any:
-    """Poll ``condition`` until it returns something truthy; fail with ``what`` at the deadline."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = condition()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            pytest.fail(f"timed out after {timeout} s waiting for {what}")
-        time.sleep(0.1)
 
 
 def raw_get(port: int, path: str) -> tuple[int, bytes]:
@@ -112,8 +84,8 @@ def client(base_url: str) -> Client:
 @pytest.fixture
 def connected(client: Client) -> Client:
     """A client that has connected the telescope through the Alpaca API, as N.I.N.A. would."""
-    client.put("connected", Connected="true")
-    wait_for(lambda: client.status()["position"] is not None, what="a first position")
+    client.command("connected", Connected="true")
+    wait_until(lambda: client.status()["position"] is not None, what="a first position")
     return client
 
 
@@ -122,7 +94,7 @@ def connected(client: Client) -> Client:
 
 def test_setup_pages_are_html_with_security_headers(client: Client) -> None:
     for path in ("/setup", "/setup/v1/telescope/0/setup"):
-        r = client.http.get(client.base + path, timeout=TIMEOUT)
+        r = client.session.get(client.base + path, timeout=TIMEOUT)
         assert r.status_code == 200
         assert r.headers["Content-Type"].startswith("text/html")
         assert "<title>alpaca-zwo setup</title>" in r.text
@@ -142,7 +114,7 @@ def test_setup_pages_are_html_with_security_headers(client: Client) -> None:
     "/setup/v1/telescope/0/connect",
 ])
 def test_unknown_device_setup_page_is_403(client: Client, path: str) -> None:
-    r = client.http.get(client.base + path, timeout=TIMEOUT)
+    r = client.session.get(client.base + path, timeout=TIMEOUT)
     assert r.status_code == 403
     assert r.headers["Content-Type"].startswith("text/html")  # the Management API documents HTML here
     assert "No setup page for" in r.text
@@ -156,12 +128,12 @@ def test_unknown_device_setup_page_is_403(client: Client, path: str) -> None:
 ])
 def test_static_assets_have_types_and_revalidate(client: Client, name: str, content_type: str) -> None:
     url = f"{client.base}/setup/static/{name}"
-    r = client.http.get(url, timeout=TIMEOUT)
+    r = client.session.get(url, timeout=TIMEOUT)
     assert r.status_code == 200
     assert r.headers["Content-Type"].startswith(content_type)
     assert r.headers["Cache-Control"] == "no-cache"
     assert r.content == (static_dir() / name).read_bytes()
-    again = client.http.get(url, headers={"If-None-Match": r.headers["ETag"]}, timeout=TIMEOUT)
+    again = client.session.get(url, headers={"If-None-Match": r.headers["ETag"]}, timeout=TIMEOUT)
     assert again.status_code == 304
     assert again.content == b""
 
@@ -242,7 +214,7 @@ def test_status_before_any_client_connects(client: Client) -> None:
 
 def test_status_lists_no_bridges_when_none_runs(client: Client) -> None:
     assert client.status()["bridges"] == []
-    assert client.http.get(f"{client.base}/setup/api/server", timeout=TIMEOUT).json()["bridges"] == []
+    assert client.session.get(f"{client.base}/setup/api/server", timeout=TIMEOUT).json()["bridges"] == []
 
 
 def test_status_shows_a_running_bridge_and_its_programs(server_factory: Callable[..., AlpacaZwoServer]) -> None:
@@ -252,9 +224,9 @@ def test_status_shows_a_running_bridge_and_its_programs(server_factory: Callable
     (bridge,) = client.status()["bridges"]
     assert bridge["name"] == "stellarium" and bridge["enabled"] is True and bridge["port"] > 0
     with socket.create_connection(("127.0.0.1", bridge["port"]), timeout=TIMEOUT):
-        shown = wait_for(lambda: client.status()["bridges"][0]["clients"], what="the Stellarium program listed")
+        shown = wait_until(lambda: client.status()["bridges"][0]["clients"], what="the Stellarium program listed")
         assert len(shown) == 1
-    wait_for(lambda: not client.status()["bridges"][0]["clients"], what="the program gone from the list")
+    wait_until(lambda: not client.status()["bridges"][0]["clients"], what="the program gone from the list")
 
 
 @pytest.mark.parametrize(("preset", "shown"), [("am5-1.9.2", ("AM5", "1.9.2")), ("am5n-1.6.3", ("AM5N", "1.6.3"))])
@@ -262,8 +234,8 @@ def test_the_built_in_emulator_is_the_configured_preset(server_factory: Callable
                                                          shown: tuple[str, str]) -> None:
     server = server_factory(make_settings(emulator=EmulatorSettings(speed=1.0, baud=0, preset=preset)))
     client = Client(f"http://127.0.0.1:{server.port}")
-    client.put("connected", Connected="true")
-    mount = wait_for(lambda: client.status()["mount"], what="the mount's identity")
+    client.command("connected", Connected="true")
+    mount = wait_until(lambda: client.status()["mount"], what="the mount's identity")
     assert (mount["model"], mount["firmware"]) == shown
 
 
@@ -274,18 +246,18 @@ def test_status_matches_the_alpaca_api(connected: Client) -> None:
     assert s["initialised"] is True
     assert s["mount"]["model"] == "AM5"
     pos = s["position"]
-    ra, dec = connected.get("rightascension"), connected.get("declination")
+    ra, dec = connected.value("rightascension"), connected.value("declination")
     assert pos["ra"] == pytest.approx(ra, abs=2 / 3600)
     assert pos["dec"] == pytest.approx(dec, abs=2 / 3600)
-    assert pos["alt"] == pytest.approx(connected.get("altitude"), abs=0.05)
-    assert abs((pos["az"] - connected.get("azimuth") + 180) % 360 - 180) < 0.5  # at the pole az is touchy
-    assert s["time"]["lst"] == pytest.approx(connected.get("siderealtime"), abs=5 / 3600)
+    assert pos["alt"] == pytest.approx(connected.value("altitude"), abs=0.05)
+    assert abs((pos["az"] - connected.value("azimuth") + 180) % 360 - 180) < 0.5  # at the pole az is touchy
+    assert s["time"]["lst"] == pytest.approx(connected.value("siderealtime"), abs=5 / 3600)
     assert 0 <= pos["age_s"] < 5
     assert s["pier_side"] in ("east", "west")
-    assert {0: "east", 1: "west"}[connected.get("sideofpier")] == s["pier_side"]
-    assert s["tracking"] is connected.get("tracking")
+    assert {0: "east", 1: "west"}[connected.value("sideofpier")] == s["pier_side"]
+    assert s["tracking"] is connected.value("tracking")
     assert s["at_park"] is False
-    assert s["guide_rate"] == pytest.approx(connected.get("guideraterightascension") / SIDEREAL_DEG_S, abs=0.01)
+    assert s["guide_rate"] == pytest.approx(connected.value("guideraterightascension") / SIDEREAL_DEG_S, abs=0.01)
     utc = datetime.fromisoformat(s["time"]["utc"].replace("Z", "+00:00"))
     assert abs((utc - datetime.now(timezone.utc)).total_seconds()) < 5
     # The Alpaca client is listed as connected; the page itself has not connected.
@@ -295,15 +267,15 @@ def test_status_matches_the_alpaca_api(connected: Client) -> None:
 
 
 def test_status_shows_slew_and_target(connected: Client) -> None:
-    connected.put("tracking", Tracking="true")
-    lst = connected.get("siderealtime")
+    connected.command("tracking", Tracking="true")
+    lst = connected.value("siderealtime")
     ra = (lst + 2.0) % 24  # HA -2 h, Dec 30: well above the horizon from latitude 51
-    connected.put("slewtocoordinatesasync", RightAscension=ra, Declination=30)
+    connected.command("slewtocoordinatesasync", RightAscension=ra, Declination=30)
     s = connected.status()
     assert s["slewing"] is True
     assert s["target"]["ra"] == pytest.approx(ra, abs=1e-6)
     assert s["target"]["dec"] == pytest.approx(30)
-    wait_for(lambda: not connected.status()["slewing"], 90, "the GOTO to finish")
+    wait_until(lambda: not connected.status()["slewing"], 90, "the GOTO to finish")
     done = connected.status()
     assert done["target"] is None
     assert done["position"]["ra"] == pytest.approx(ra, abs=3 / 3600)
@@ -317,48 +289,48 @@ def test_status_shows_slew_and_target(connected: Client) -> None:
 
 def test_page_connects_and_releases_the_mount(client: Client) -> None:
     client.action("connect")
-    s = wait_for(lambda: (st := client.status())["position"] is not None and st, what="a position")
+    s = wait_until(lambda: (st := client.status())["position"] is not None and st, what="a position")
     assert s["connected"] is True and s["page_connected"] is True
     assert any(c["setup_page"] and c["connected"] for c in s["clients"])
     # The page's connection is its own: an Alpaca client is not connected by it.
-    assert client.get("connected") is False
+    assert client.value("connected") is False
     client.action("disconnect")
     assert client.status()["page_connected"] is False
 
 
 def test_tracking_and_rates_are_visible_through_alpaca(connected: Client) -> None:
     connected.action("tracking", {"on": True})
-    assert connected.get("tracking") is True
+    assert connected.value("tracking") is True
     connected.action("tracking", {"on": False})
-    assert connected.get("tracking") is False
+    assert connected.value("tracking") is False
     connected.action("tracking_rate", {"rate": 1})
-    assert connected.get("trackingrate") == 1
+    assert connected.value("trackingrate") == 1
     assert connected.status()["tracking_rate_name"] == "lunar"
     connected.action("tracking_rate", {"rate": 0})
     connected.action("guide_rate", {"rate": 0.3})
-    assert connected.get("guideraterightascension") == pytest.approx(0.3 * SIDEREAL_DEG_S, rel=1e-3)
-    assert connected.get("guideratedeclination") == pytest.approx(0.3 * SIDEREAL_DEG_S, rel=1e-3)
+    assert connected.value("guideraterightascension") == pytest.approx(0.3 * SIDEREAL_DEG_S, rel=1e-3)
+    assert connected.value("guideratedeclination") == pytest.approx(0.3 * SIDEREAL_DEG_S, rel=1e-3)
     assert connected.status()["guide_rate"] == pytest.approx(0.3)
 
 
 def test_jog_moves_and_stops(connected: Client) -> None:
     before = connected.status()["position"]
     connected.action("move", {"axis": 1, "rate": -20 * SIDEREAL_DEG_S})
-    assert connected.get("slewing") is True
+    assert connected.value("slewing") is True
     assert connected.status()["moving_axes"] == [1]
-    wait_for(lambda: connected.status()["position"]["dec"] < before["dec"] - 0.05, 20, "Dec to decrease")
+    wait_until(lambda: connected.status()["position"]["dec"] < before["dec"] - 0.05, 20, "Dec to decrease")
     connected.action("move", {"axis": 1, "rate": 0})
-    wait_for(lambda: not connected.get("slewing"), 10, "the move to stop")
+    wait_until(lambda: not connected.value("slewing"), 10, "the move to stop")
     assert connected.status()["moving_axes"] == []
 
 
 def test_stop_aborts_a_goto(connected: Client) -> None:
-    connected.put("tracking", Tracking="true")
-    lst = connected.get("siderealtime")
-    connected.put("slewtocoordinatesasync", RightAscension=(lst - 3.0) % 24, Declination=-5)
-    wait_for(lambda: connected.status()["position"]["dec"] < 80, 30, "the slew to get going")
+    connected.command("tracking", Tracking="true")
+    lst = connected.value("siderealtime")
+    connected.command("slewtocoordinatesasync", RightAscension=(lst - 3.0) % 24, Declination=-5)
+    wait_until(lambda: connected.status()["position"]["dec"] < 80, 30, "the slew to get going")
     connected.action("abort")
-    wait_for(lambda: not connected.get("slewing"), 10, "Slewing to clear")
+    wait_until(lambda: not connected.value("slewing"), 10, "Slewing to clear")
     # The axes brake for a moment (the mount decelerates); then Dec must stay put.
     readings: list[float] = []
 
@@ -366,14 +338,14 @@ def test_stop_aborts_a_goto(connected: Client) -> None:
         readings.append(connected.status()["position"]["dec"])
         return len(readings) > 5 and max(readings[-5:]) - min(readings[-5:]) < 5 / 3600
 
-    wait_for(settled, 15, "the axes to come to rest")
+    wait_until(settled, 15, "the axes to come to rest")
     assert readings[-1] > 40  # it stopped far short of the target at Dec -5
     assert connected.status()["slewing"] is False
 
 
 def test_park_unpark_home_and_set_park(connected: Client) -> None:
     connected.action("park")
-    wait_for(lambda: connected.get("atpark"), 60, "AtPark")
+    wait_until(lambda: connected.value("atpark"), 60, "AtPark")
     s = connected.status()
     assert s["at_park"] is True and s["tracking"] is False
     r = connected.post("/setup/api/telescope/0/action/move", {"axis": 0, "rate": SIDEREAL_DEG_S})
@@ -381,14 +353,14 @@ def test_park_unpark_home_and_set_park(connected: Client) -> None:
     assert "parked" in r.json()["error"]
     connected.action("abort")  # Stop is always allowed, even when parked
     connected.action("unpark")
-    assert connected.get("atpark") is False
+    assert connected.value("atpark") is False
     connected.action("find_home")
-    wait_for(lambda: not connected.get("slewing"), 60, "the home slew")
-    assert connected.get("athome") is True
-    connected.put("tracking", Tracking="true")
-    lst = connected.get("siderealtime")
-    connected.put("slewtocoordinatesasync", RightAscension=(lst + 1.0) % 24, Declination=20)
-    wait_for(lambda: not connected.get("slewing"), 90, "the GOTO")
+    wait_until(lambda: not connected.value("slewing"), 60, "the home slew")
+    assert connected.value("athome") is True
+    connected.command("tracking", Tracking="true")
+    lst = connected.value("siderealtime")
+    connected.command("slewtocoordinatesasync", RightAscension=(lst + 1.0) % 24, Declination=20)
+    wait_until(lambda: not connected.value("slewing"), 90, "the GOTO")
     park = connected.action("set_park")["park"]
     assert park["mode"] == "custom"
     assert park["ha_hours"] == pytest.approx(-1.0, abs=0.01)
@@ -399,7 +371,7 @@ def test_park_unpark_home_and_set_park(connected: Client) -> None:
 def test_time_from_the_browser_sets_utcdate(connected: Client) -> None:
     wanted = datetime.now(timezone.utc) + timedelta(hours=1)
     connected.action("time", {"utc": wanted.isoformat().replace("+00:00", "Z")})
-    utc = datetime.fromisoformat(connected.get("utcdate").replace("Z", "+00:00"))
+    utc = datetime.fromisoformat(connected.value("utcdate").replace("Z", "+00:00"))
     assert abs((utc - wanted).total_seconds()) < 5
     assert connected.status()["time"]["offset_s"] == pytest.approx(3600, abs=5)
     r = connected.post("/setup/api/telescope/0/action/time", {"utc": "2025-01-01T00:00:00"})
@@ -418,7 +390,7 @@ def test_control_errors_are_json(client: Client) -> None:
     assert r.status_code == 404 and "unknown action" in r.json()["error"]
     r = client.post("/setup/api/telescope/3/action/park")
     assert r.status_code == 404
-    assert client.http.get(f"{client.base}/setup/api/telescope/1/status", timeout=TIMEOUT).status_code == 404
+    assert client.session.get(f"{client.base}/setup/api/telescope/1/status", timeout=TIMEOUT).status_code == 404
 
 
 # --- settings ----------------------------------------------------------------------------------
@@ -427,9 +399,9 @@ def test_control_errors_are_json(client: Client) -> None:
 def test_site_settings_apply_to_the_alpaca_api(client: Client) -> None:
     result = client.change({"site": {"latitude": -33.8568, "longitude": 151.2153, "elevation": 58.5}})
     assert result["site"] == {"latitude": -33.8568, "longitude": 151.2153, "elevation": 58.5}
-    assert client.get("sitelatitude") == -33.8568
-    assert client.get("sitelongitude") == 151.2153
-    assert client.get("siteelevation") == 58.5
+    assert client.value("sitelatitude") == -33.8568
+    assert client.value("sitelongitude") == 151.2153
+    assert client.value("siteelevation") == 58.5
     sky_view = client.status()["sky"]
     assert sky_view["pole"] == [180.0, pytest.approx(33.8568)]
 
@@ -481,9 +453,9 @@ def test_mount_settings_round_trip(connected: Client) -> None:
     assert status["sky"]["mount_limits"] == {"lower": 10, "upper": 80}
     assert status["sky"]["flip_line"]
     # DestinationSideOfPier follows the new limit at once: HA +0.3 h (4.5°) is within 10° past the meridian.
-    lst = connected.get("siderealtime")
+    lst = connected.value("siderealtime")
     ra = (lst - 0.3) % 24
-    assert connected.get("destinationsideofpier", RightAscension=ra, Declination=40) == int(sky.PierSide.WEST)
+    assert connected.value("destinationsideofpier", RightAscension=ra, Declination=40) == int(sky.PierSide.WEST)
     for body in ({"buzzer": 3}, {"mount_limits": {"upper": 50}}, {"heavy_duty": "yes"},
                  {"meridian": {"track_after": True, "limit_degrees": 20}}):
         r = connected.post("/setup/api/telescope/0/settings", body)
@@ -494,7 +466,7 @@ def test_mount_settings_round_trip(connected: Client) -> None:
     assert connected.settings()["mount"]["buzzer"] == 0
     connected.change({"meridian": {"track_after": False, "limit_degrees": 0}, "mount_limits": {"enabled": False},
                       "heavy_duty": False, "buzzer": 1})
-    assert connected.get("destinationsideofpier", RightAscension=ra, Declination=40) == int(sky.PierSide.EAST)
+    assert connected.value("destinationsideofpier", RightAscension=ra, Declination=40) == int(sky.PierSide.EAST)
 
 
 def test_horizon_limits_refuse_gotos(connected: Client) -> None:
@@ -502,8 +474,8 @@ def test_horizon_limits_refuse_gotos(connected: Client) -> None:
     assert s["limits"]["horizon"] == [[90.0, 30.0], [270.0, 5.0]]
     floor = dict((az, alt) for az, alt in connected.status()["sky"]["floor"])
     assert floor[90] == 30 and floor[270] == 20 and floor[0] == pytest.approx(20)
-    lst = connected.get("siderealtime")
-    r = connected.http.put(f"{connected.base}/api/v1/telescope/0/slewtocoordinatesasync",
+    lst = connected.value("siderealtime")
+    r = connected.session.put(f"{connected.base}/api/v1/telescope/0/slewtocoordinatesasync",
                            data={"RightAscension": (lst + 5) % 24, "Declination": 0, "ClientID": 77}, timeout=TIMEOUT)
     assert r.json()["ErrorNumber"] == 0x401  # HA -5 h, Dec 0: low in the east, under the 30° profile
 
@@ -517,7 +489,7 @@ def test_park_safety_and_name(base_url: str, client: Client) -> None:
     assert s["device"]["name"] == "Backyard AM5"
     devices = requests.get(f"{base_url}/management/v1/configureddevices", timeout=TIMEOUT).json()["Value"]
     assert devices[0]["DeviceName"] == "Backyard AM5"
-    assert client.get("name") == "Backyard AM5"
+    assert client.value("name") == "Backyard AM5"
 
 
 def test_settings_persist_across_a_restart(tmp_path: Path, server_factory: Callable[..., AlpacaZwoServer]) -> None:
@@ -527,7 +499,7 @@ def test_settings_persist_across_a_restart(tmp_path: Path, server_factory: Calla
                "park": {"mode": "custom", "ha_hours": -2, "dec_deg": 10},
                "limits": {"min_altitude_deg": 12.5, "horizon": [[100, 20]]},
                "device": {"name": "Madrid"}})
-    c1.http.close()
+    c1.session.close()
     first.stop()
 
     second = server_factory(load_settings(tmp_path / "persist.toml"), config_name="persist.toml")
@@ -536,9 +508,9 @@ def test_settings_persist_across_a_restart(tmp_path: Path, server_factory: Calla
     assert s["site"] == {"latitude": 40.4168, "longitude": -3.7038, "elevation": 667.0}
     assert s["park"] == {"mode": "custom", "ha_hours": -2.0, "dec_deg": 10.0}
     assert s["limits"]["min_altitude_deg"] == 12.5 and s["limits"]["horizon"] == [[100.0, 20.0]]
-    assert c2.get("sitelatitude") == 40.4168
-    assert c2.get("sitelongitude") == -3.7038
-    assert c2.get("name") == "Madrid"
+    assert c2.value("sitelatitude") == 40.4168
+    assert c2.value("sitelongitude") == -3.7038
+    assert c2.value("name") == "Madrid"
 
 
 def test_network_settings_are_saved_for_the_next_start(tmp_path: Path, client: Client,
@@ -553,7 +525,7 @@ def test_network_settings_are_saved_for_the_next_start(tmp_path: Path, client: C
     assert r.status_code == 400
     r = client.post("/setup/api/server", {"basic_auth_password": "x"})
     assert r.status_code == 400
-    info = client.http.get(f"{client.base}/setup/api/server", timeout=TIMEOUT).json()
+    info = client.session.get(f"{client.base}/setup/api/server", timeout=TIMEOUT).json()
     assert info["version"] and info["devices"][0]["number"] == 0 and info["port"] == live_server.port
 
 
@@ -561,12 +533,12 @@ def test_network_settings_are_saved_for_the_next_start(tmp_path: Path, client: C
 
 
 def test_state_changes_need_the_custom_header(connected: Client) -> None:
-    connected.put("tracking", Tracking="false")
+    connected.command("tracking", Tracking="false")
     r = connected.post("/setup/api/telescope/0/action/tracking", {"on": True},
                        headers={"Content-Type": "application/json"})
     assert r.status_code == 403
     assert r.headers["Content-Type"].startswith("text/plain")
-    assert connected.get("tracking") is False
+    assert connected.value("tracking") is False
 
 
 @pytest.mark.parametrize("extra", [
@@ -579,15 +551,15 @@ def test_state_changes_need_the_custom_header(connected: Client) -> None:
     {"Sec-Fetch-Site": "same-site"},
 ])
 def test_cross_origin_posts_are_refused(connected: Client, extra: dict[str, str]) -> None:
-    connected.put("tracking", Tracking="false")
+    connected.command("tracking", Tracking="false")
     for path, body in (("/setup/api/telescope/0/action/tracking", {"on": True}),
                        ("/setup/api/telescope/0/settings", {"site": {"latitude": 1}}),
                        ("/setup/api/server", {"location": "x"})):
         r = connected.post(path, body, headers={**HEADERS, **extra})
         assert r.status_code == 403, (path, extra)
         assert r.headers["Content-Type"].startswith("text/plain")
-    assert connected.get("tracking") is False
-    assert connected.get("sitelatitude") == pytest.approx(51.4769)
+    assert connected.value("tracking") is False
+    assert connected.value("sitelatitude") == pytest.approx(51.4769)
 
 
 def test_same_origin_posts_are_accepted(connected: Client, live_server: AlpacaZwoServer) -> None:
@@ -595,25 +567,25 @@ def test_same_origin_posts_are_accepted(connected: Client, live_server: AlpacaZw
     r = connected.post("/setup/api/telescope/0/action/tracking", {"on": True},
                        headers={**HEADERS, "Origin": origin, "Sec-Fetch-Site": "same-origin"})
     assert r.status_code == 200, r.text
-    assert connected.get("tracking") is True
+    assert connected.value("tracking") is True
 
 
 def test_bodies_must_be_json_objects(client: Client) -> None:
     url = f"{client.base}/setup/api/telescope/0/settings"
-    r = client.http.post(url, data="{not json", headers=HEADERS, timeout=TIMEOUT)
+    r = client.session.post(url, data="{not json", headers=HEADERS, timeout=TIMEOUT)
     assert r.status_code == 400 and "JSON" in r.json()["error"]
-    r = client.http.post(url, data="[1, 2]", headers=HEADERS, timeout=TIMEOUT)
+    r = client.session.post(url, data="[1, 2]", headers=HEADERS, timeout=TIMEOUT)
     assert r.status_code == 400 and "object" in r.json()["error"]
     form = {CSRF_HEADER: "1", "Content-Type": "application/x-www-form-urlencoded"}
-    r = client.http.post(url, data="site=1", headers=form, timeout=TIMEOUT)
+    r = client.session.post(url, data="site=1", headers=form, timeout=TIMEOUT)
     assert r.status_code == 415
-    r = client.http.post(url, data=b"\xff\xfe", headers=HEADERS, timeout=TIMEOUT)
+    r = client.session.post(url, data=b"\xff\xfe", headers=HEADERS, timeout=TIMEOUT)
     assert r.status_code == 400
 
 
 def test_gets_do_not_change_state(client: Client) -> None:
     for path in ("/setup/api/telescope/0/action/connect", "/setup/api/telescope/0/action/park"):
-        r = client.http.get(client.base + path, timeout=TIMEOUT)
+        r = client.session.get(client.base + path, timeout=TIMEOUT)
         assert r.status_code == 405, path
     assert client.status()["connected"] is False
 
@@ -634,28 +606,28 @@ def test_basic_auth_covers_the_setup_page(server_factory: Callable[..., AlpacaZw
 
 
 def test_trace_shows_the_serial_exchanges(connected: Client) -> None:
-    r = connected.http.get(f"{connected.api}/trace", timeout=TIMEOUT)
+    r = connected.session.get(f"{connected.api}/trace", timeout=TIMEOUT)
     entries = r.json()["entries"]
     requests_sent = [e["request"] for e in entries]
     assert ":GVP#" in requests_sent and ":GMEQ#" in requests_sent
     last = entries[-1]["time"]
-    newer = connected.http.get(f"{connected.api}/trace", params={"after": last}, timeout=TIMEOUT).json()["entries"]
+    newer = connected.session.get(f"{connected.api}/trace", params={"after": last}, timeout=TIMEOUT).json()["entries"]
     assert all(e["time"] > last for e in newer)
-    text = connected.http.get(f"{connected.api}/trace.txt", timeout=TIMEOUT)
+    text = connected.session.get(f"{connected.api}/trace.txt", timeout=TIMEOUT)
     assert text.headers["Content-Disposition"].startswith("attachment;")
     assert ":GVP#" in text.text
-    assert connected.http.get(f"{connected.api}/trace", params={"after": "nan"}, timeout=TIMEOUT).status_code == 400
+    assert connected.session.get(f"{connected.api}/trace", params={"after": "nan"}, timeout=TIMEOUT).status_code == 400
 
 
 def test_log_view_and_download(client: Client, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO, logger="alpaca_zwo")
     client.change({"park": {"mode": "home"}})
-    entries = client.http.get(f"{client.base}/setup/api/log", timeout=TIMEOUT).json()["entries"]
+    entries = client.session.get(f"{client.base}/setup/api/log", timeout=TIMEOUT).json()["entries"]
     assert any("settings changed: park" in e["message"] for e in entries)
     last = entries[-1]["seq"]
-    assert client.http.get(f"{client.base}/setup/api/log", params={"after": last},
+    assert client.session.get(f"{client.base}/setup/api/log", params={"after": last},
                            timeout=TIMEOUT).json()["entries"] == []
-    r = client.http.get(f"{client.base}/setup/api/log.txt", timeout=TIMEOUT)
+    r = client.session.get(f"{client.base}/setup/api/log.txt", timeout=TIMEOUT)
     assert r.status_code == 200
     assert r.headers["Content-Type"].startswith("text/plain")
     assert r.headers["Content-Disposition"].startswith('attachment; filename="alpaca-zwo-log-')

@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import requests
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.remote.webdriver import WebDriver
@@ -20,27 +19,10 @@ from selenium.webdriver.support.ui import WebDriverWait
 from alpaca_zwo.config import StellariumSettings, load_settings
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conftest import make_settings
+from tests.support import AlpacaClient
 
 TIMEOUT = 10
 DASH = "\u2013"
-
-
-class Alpaca:
-    """Just enough of an Alpaca client to drive the mount the way N.I.N.A. does."""
-
-    def __init__(self, port: int, client_id: int = 4242) -> None:
-        self.url = f"http://127.0.0.1:{port}/api/v1/telescope/0"
-        self.client_id = client_id
-
-    def get(self, member: str) -> Any:
-        body = requests.get(f"{self.url}/{member}", params={"ClientID": self.client_id}, timeout=TIMEOUT).json()
-        assert body["ErrorNumber"] == 0, body
-        return body["Value"]
-
-    def put(self, member: str, **params: object) -> None:
-        body = requests.put(f"{self.url}/{member}", data={"ClientID": self.client_id, **params},
-                            timeout=TIMEOUT).json()
-        assert body["ErrorNumber"] == 0, body
 
 
 def text(driver: WebDriver, element_id: str) -> str:
@@ -57,11 +39,11 @@ def open_page(driver: WebDriver, port: int, path: str = "/setup") -> None:
     WebDriverWait(driver, 15).until(lambda d: text(d, "link-pill").startswith("mount:"))
 
 
-def start_goto(alpaca: Alpaca, ha_hours: float, dec: float) -> float:
+def start_goto(alpaca: AlpacaClient, ha_hours: float, dec: float) -> float:
     """Start a GOTO to an hour angle (east is negative) and declination; return the target RA."""
-    alpaca.put("tracking", Tracking="true")
-    ra = (alpaca.get("siderealtime") - ha_hours) % 24
-    alpaca.put("slewtocoordinatesasync", RightAscension=ra, Declination=dec)
+    alpaca.command("tracking", Tracking="true")
+    ra = (alpaca.value("siderealtime") - ha_hours) % 24
+    alpaca.command("slewtocoordinatesasync", RightAscension=ra, Declination=dec)
     return ra
 
 
@@ -71,9 +53,9 @@ def server(server_factory: Callable[..., AlpacaZwoServer]) -> AlpacaZwoServer:
 
 
 @pytest.fixture
-def alpaca(server: AlpacaZwoServer) -> Alpaca:
-    client = Alpaca(server.port)
-    client.put("connected", Connected="true")
+def alpaca(server: AlpacaZwoServer) -> AlpacaClient:
+    client = AlpacaClient(server.port, timeout=TIMEOUT, call_timeout=TIMEOUT)
+    client.command("connected", Connected="true")
     return client
 
 
@@ -100,7 +82,7 @@ def test_page_loads_without_console_errors(browser: WebDriver, server: AlpacaZwo
 
 
 def test_status_updates_live_while_the_mount_slews(browser: WebDriver, server: AlpacaZwoServer,
-                                                   alpaca: Alpaca) -> None:
+                                                   alpaca: AlpacaClient) -> None:
     open_page(browser, server.port)
     WebDriverWait(browser, 15).until(lambda d: text(d, "dec") != DASH)
     start_goto(alpaca, ha_hours=-2.0, dec=20.0)
@@ -135,34 +117,34 @@ def test_changed_setting_persists_across_a_restart(browser: WebDriver, tmp_path:
         field.send_keys(value)
     browser.find_element(By.CSS_SELECTOR, "#form-site button[type=submit]").click()
     WebDriverWait(browser, 10).until(lambda d: "Site saved" in text(d, "messages"))
-    assert Alpaca(first.port).get("sitelatitude") == -31.2733
+    assert AlpacaClient(first.port, timeout=TIMEOUT, call_timeout=TIMEOUT).value("sitelatitude") == -31.2733
     first.stop()
 
     second = server_factory(load_settings(tmp_path / "browser.toml"), config_name="browser.toml")
     open_page(browser, second.port)
     WebDriverWait(browser, 10).until(lambda d: d.find_element(By.ID, "site-lat").get_attribute("value") == "-31.2733")
     assert browser.find_element(By.ID, "site-lon").get_attribute("value") == "149.0617"
-    alpaca = Alpaca(second.port)
-    assert alpaca.get("sitelatitude") == -31.2733
-    assert alpaca.get("sitelongitude") == 149.0617
-    assert alpaca.get("siteelevation") == 1165
+    alpaca = AlpacaClient(second.port, timeout=TIMEOUT, call_timeout=TIMEOUT)
+    assert alpaca.value("sitelatitude") == -31.2733
+    assert alpaca.value("sitelongitude") == 149.0617
+    assert alpaca.value("siteelevation") == 1165
     # The southern sky: the plot's pole marker moves to the south.
     pole = browser.find_element(By.ID, "sky-pole").get_attribute("transform")
     assert pole.startswith("translate(") and float(pole.split()[1].rstrip(")")) > 0
 
 
-def test_stop_button_stops_a_slew(browser: WebDriver, server: AlpacaZwoServer, alpaca: Alpaca) -> None:
+def test_stop_button_stops_a_slew(browser: WebDriver, server: AlpacaZwoServer, alpaca: AlpacaClient) -> None:
     open_page(browser, server.port)
     start_goto(alpaca, ha_hours=3.0, dec=-10.0)
     WebDriverWait(browser, 10).until(lambda d: text(d, "slewing").startswith("yes"))
     browser.find_element(By.ID, "btn-stop").click()
-    WebDriverWait(browser, 10).until(lambda d: not alpaca.get("slewing"))
+    WebDriverWait(browser, 10).until(lambda d: not alpaca.value("slewing"))
     WebDriverWait(browser, 10).until(lambda d: text(d, "slewing") == "no")
     # After braking the mount stays where it stopped, far from the target.
     readings: list[float] = []
 
     def at_rest(_: WebDriver) -> bool:
-        readings.append(alpaca.get("declination"))
+        readings.append(alpaca.value("declination"))
         return len(readings) >= 5 and max(readings[-5:]) - min(readings[-5:]) < 5 / 3600
 
     WebDriverWait(browser, 20, poll_frequency=0.2).until(at_rest)
@@ -170,16 +152,16 @@ def test_stop_button_stops_a_slew(browser: WebDriver, server: AlpacaZwoServer, a
     assert "Stopped" in text(browser, "messages")
 
 
-def test_jog_button_moves_while_pressed(browser: WebDriver, server: AlpacaZwoServer, alpaca: Alpaca) -> None:
+def test_jog_button_moves_while_pressed(browser: WebDriver, server: AlpacaZwoServer, alpaca: AlpacaClient) -> None:
     open_page(browser, server.port)
     WebDriverWait(browser, 15).until(lambda d: d.find_element(By.ID, "jog-s").is_enabled())
-    start_dec = alpaca.get("declination")
+    start_dec = alpaca.value("declination")
     button = browser.find_element(By.ID, "jog-s")
     ActionChains(browser).click_and_hold(button).perform()
-    WebDriverWait(browser, 10).until(lambda d: alpaca.get("slewing"))
-    WebDriverWait(browser, 20).until(lambda d: alpaca.get("declination") < start_dec - 0.05)
+    WebDriverWait(browser, 10).until(lambda d: alpaca.value("slewing"))
+    WebDriverWait(browser, 20).until(lambda d: alpaca.value("declination") < start_dec - 0.05)
     ActionChains(browser).release(button).perform()
-    WebDriverWait(browser, 10).until(lambda d: not alpaca.get("slewing"))
+    WebDriverWait(browser, 10).until(lambda d: not alpaca.value("slewing"))
     WebDriverWait(browser, 10).until(lambda d: text(d, "slewing") == "no")
     assert console_errors(browser) == []
 
