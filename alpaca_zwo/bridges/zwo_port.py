@@ -198,7 +198,10 @@ class ZwoPortBridge:
             else:
                 full = False
                 ident = next(self._ids)
-                program = _Program(sock, address, Session(ClientKey(f"zwo-port {address}", ident)))
+                # One client key per host, not per connection: a connection storm must not
+                # crowd real clients out of the bounded client registry.
+                host = address.rsplit(":", 1)[0]
+                program = _Program(sock, address, Session(ClientKey(f"zwo-port {host}", 0)))
                 self._programs[ident] = program
         if full:
             log.warning("ZWO port: %s refused: %d programs already connected (zwo_port.max_clients)",

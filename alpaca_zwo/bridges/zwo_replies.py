@@ -28,7 +28,6 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from datetime import datetime, timedelta, timezone
 from typing import TYPE_CHECKING
 
 from .. import protocol, sky
@@ -61,6 +60,7 @@ from ..protocol import (
     format_time,
     format_utc_offset,
 )
+from .zwo_clock_site import ClockAndSite
 
 if TYPE_CHECKING:
     from ..mount import Mount
@@ -78,10 +78,6 @@ GUIDE_DIRECTION = {"n": 0, "s": 1, "e": 2, "w": 3}  # Telescope.pulse_guide's Di
 #: :M?# -> (axis, sign): axis 0 is RA (+ east), axis 1 is Dec (+ north), as Telescope.move_axis takes them.
 MOVES = {"e": (0, 1.0), "w": (0, -1.0), "n": (1, 1.0), "s": (1, -1.0)}
 SETTINGS_TTL_S = 300.0
-#: A time or site setter closer than this to what the server has changes nothing: the wire has
-#: whole seconds and arcseconds, so a program pushing the same clock must not truncate ours.
-TIME_TOLERANCE_S = 1.5
-SITE_TOLERANCE_DEG = 1.5 / 3600.0
 
 
 class Refusal(Exception):
@@ -112,12 +108,6 @@ def _ok(flag: bool) -> str:
     return "1" if flag else "0"
 
 
-def _host_utc_offset_hours() -> float:
-    """The zone the Mount pushes at connect (the host's), so ``:GG#`` starts out as the mount's."""
-    offset = datetime.now().astimezone().utcoffset()
-    return offset.total_seconds() / 3600.0 if offset is not None else 0.0
-
-
 Handler = Callable[[Session, str, bool], "str | None"]
 
 
@@ -127,7 +117,7 @@ class ZwoResponder:
     def __init__(self, telescope: Telescope) -> None:
         self.telescope = telescope
         self._lock = threading.Lock()
-        self._utc_offset_hours = _host_utc_offset_hours()  # the mount's zone as programs see it
+        self.clock = ClockAndSite(telescope)
         self._settings: MountSettings | None = None
         self._settings_time = 0.0
         self._handlers = self._build_table()
@@ -182,18 +172,18 @@ class ZwoResponder:
     # -- the table -----------------------------------------------------------------------------
 
     def _build_table(self) -> dict[str, Handler]:
-        t = self.telescope
+        t, c = self.telescope, self.clock
         table: dict[str, Handler] = {
             # Date, time, site
-            "SC": self._set_date, "GC": lambda s, a, w: format_date(self._local().date()) + "#",
-            "SL": self._set_time, "GL": lambda s, a, w: format_time(self._local().time()) + "#",
+            "SC": c.set_date, "GC": lambda s, a, w: format_date(c.local().date()) + "#",
+            "SL": c.set_time, "GL": lambda s, a, w: format_time(c.local().time()) + "#",
             "GS": lambda s, a, w: format_hms(t.sidereal_time()) + "#",
             "GH": lambda s, a, w: self._setting_reply(lambda m: f"{int(m.daylight_saving)}#", "daylight_saving"),
-            "SG": self._set_zone, "GG": lambda s, a, w: format_utc_offset(self._utc_offset_hours) + "#",
-            "St": self._set_latitude, "Gt": lambda s, a, w: format_latitude(t.site_latitude()) + "#",
-            "Sg": self._set_longitude, "Gg": lambda s, a, w: format_longitude(t.site_longitude()) + "#",
-            "SMTI": self._set_date_time_zone, "GMTI": self._get_date_time_zone,
-            "SMGE": self._set_site,
+            "SG": c.set_zone, "GG": lambda s, a, w: format_utc_offset(c.utc_offset_hours) + "#",
+            "St": c.set_latitude, "Gt": lambda s, a, w: format_latitude(t.site_latitude()) + "#",
+            "Sg": c.set_longitude, "Gg": lambda s, a, w: format_longitude(t.site_longitude()) + "#",
+            "SMTI": c.set_date_time_zone, "GMTI": c.get_date_time_zone,
+            "SMGE": c.set_site,
             "GMGE": lambda s, a, w: f"{format_latitude(t.site_latitude())}&{format_longitude(t.site_longitude())}#",
             # Position and target
             "Gm": lambda s, a, w: f"{self.mount.state.pier}#" if self.mount.state.pier else None,
@@ -251,94 +241,6 @@ class ZwoResponder:
     @staticmethod
     def _unreachable(_session: Session, _argument: str, _well_formed: bool) -> None:
         raise AssertionError("guarded commands are answered by _guarded")
-
-    # -- time and site -------------------------------------------------------------------------
-
-    def _local(self) -> datetime:
-        return self.telescope.utc_now() + timedelta(hours=self._utc_offset_hours)
-
-    def _set_local(self, local: datetime) -> str:
-        """Set the server's UTC (the Telescope's UTCDate, pushed to the mount) from a local time."""
-        utc = (local - timedelta(hours=self._utc_offset_hours)).replace(tzinfo=timezone.utc)
-        if abs((utc - self.telescope.utc_now()).total_seconds()) < TIME_TOLERANCE_S:
-            return "1"
-        try:
-            self.telescope.set_utc_date(utc)
-        except InvalidValue:
-            return "0"
-        return "1"
-
-    def _set_date(self, _session: Session, argument: str, well_formed: bool) -> str:
-        try:
-            day = protocol.parse_date(argument)
-        except ProtocolError:
-            return "0"
-        return self._set_local(datetime.combine(day, self._local().time())) if well_formed else "0"
-
-    def _set_time(self, _session: Session, argument: str, well_formed: bool) -> str:
-        try:
-            clock = protocol.parse_time(argument)
-        except ProtocolError:
-            return "0"
-        return self._set_local(datetime.combine(self._local().date(), clock)) if well_formed else "0"
-
-    def _set_zone(self, _session: Session, argument: str, well_formed: bool) -> str:
-        """The zone only changes how local times are read and shown; the mount keeps the server's."""
-        try:
-            offset = protocol.parse_utc_offset(argument)
-        except ProtocolError:
-            return "0"
-        with self._lock:
-            self._utc_offset_hours = offset
-        return _ok(well_formed)
-
-    def _set_date_time_zone(self, session: Session, argument: str, well_formed: bool) -> str:
-        try:
-            day_text, time_text, zone_text = argument.split("&")
-            day, clock = protocol.parse_date(day_text), protocol.parse_time(time_text)
-            offset = protocol.parse_utc_offset(zone_text)
-        except (ProtocolError, ValueError):
-            return "0"
-        if not well_formed:
-            return "0"
-        with self._lock:
-            self._utc_offset_hours = offset
-        return self._set_local(datetime.combine(day, clock))
-
-    def _get_date_time_zone(self, _session: Session, _argument: str, _well_formed: bool) -> str:
-        local = self._local()
-        return f"{format_date(local.date())}&{format_time(local.time())}&{format_utc_offset(self._utc_offset_hours)}#"
-
-    def _update_site(self, latitude: float | None, longitude: float | None) -> str:
-        t = self.telescope
-        try:
-            if latitude is not None and abs(latitude - t.site_latitude()) >= SITE_TOLERANCE_DEG:
-                t.set_site_latitude(latitude)
-            if longitude is not None and abs(longitude - t.site_longitude()) >= SITE_TOLERANCE_DEG:
-                t.set_site_longitude(longitude)
-        except InvalidValue:
-            return "0"
-        return "1"
-
-    def _set_latitude(self, _session: Session, argument: str, well_formed: bool) -> str:
-        try:
-            return self._update_site(protocol.parse_dms(argument), None) if well_formed else "0"
-        except ProtocolError:
-            return "0"
-
-    def _set_longitude(self, _session: Session, argument: str, well_formed: bool) -> str:
-        try:
-            return self._update_site(None, protocol.parse_longitude(argument)) if well_formed else "0"
-        except ProtocolError:
-            return "0"
-
-    def _set_site(self, _session: Session, argument: str, well_formed: bool) -> str:
-        try:
-            lat_text, lon_text = argument.split("&")
-            latitude, longitude = protocol.parse_dms(lat_text), protocol.parse_longitude(lon_text)
-        except (ProtocolError, ValueError):
-            return "0"
-        return self._update_site(latitude, longitude) if well_formed else "0"
 
     # -- the few settings the poller does not read ---------------------------------------------
 
