@@ -255,3 +255,62 @@ def test_command_line_option_turns_it_on_for_the_run(tmp_path: Path) -> None:
     finally:
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(timeout=30) == 0
+
+
+def test_five_stellariums_add_no_serial_traffic(tmp_path: Path) -> None:
+    """The stream is served from the server's state: five programs cost the mount's line nothing."""
+    with running_server(tmp_path) as rig:
+        counters = rig.server.telescopes[0].mount.link.counters
+        rig.alpaca.get("rightascension")
+
+        def exchanges_during(seconds: float) -> int:
+            before = counters.exchanges
+            time.sleep(seconds)  # a measurement window, not synchronisation
+            return counters.exchanges - before
+
+        alone = exchanges_during(5.0)
+        clients = [StellariumClient(rig.stellarium_port) for _ in range(5)]
+        try:
+            for c in clients:
+                c.read_position()
+            with_five = exchanges_during(5.0)
+            assert all(c.latest_position().status == 0 for c in clients)
+        finally:
+            for c in clients:
+                c.close()
+        print(f"serial exchanges in 5 s: {alone} with Alpaca alone, {with_five} with 5 Stellariums too")
+        # The poller's own count varies by one 4-exchange cycle per window; a per-message read by
+        # the bridge would add 5 x 4 Hz = 20 exchanges a second, 100 per window.
+        assert with_five <= alone * 1.1 + 8, f"{alone} exchanges in 5 s alone, {with_five} with 5 Stellariums"
+
+
+def test_unreachable_mount_is_reported_and_stellarium_stays(tmp_path: Path) -> None:
+    import dataclasses
+    import socket
+
+    from alpaca_zwo.config import DeviceSettings, StellariumSettings
+    from alpaca_zwo.server import AlpacaZwoServer
+    from alpaca_zwo.store import SettingsStore
+    from tests.conftest import make_settings
+
+    with socket.socket() as s:  # a port with nothing listening: the mount is "switched off"
+        s.bind(("127.0.0.1", 0))
+        dead = s.getsockname()[1]
+    settings = make_settings(stellarium=StellariumSettings(enabled=True, host="127.0.0.1", port=0))
+    device = dataclasses.replace(settings.devices[0], url=f"socket://127.0.0.1:{dead}", timeout=0.5)
+    settings = dataclasses.replace(settings, devices=(device,))
+    assert isinstance(device, DeviceSettings)
+    server = AlpacaZwoServer(SettingsStore(settings, tmp_path / "config.toml"))
+    server.start()
+    try:
+        client = StellariumClient(server.stellarium.port)
+        try:
+            wait_until(lambda: "cannot connect the telescope" in str(server.stellarium.status()["last_error"]),
+                       20.0, "the failed mount connection to be recorded")
+            with pytest.raises(TimeoutError):
+                client.read_position(timeout=1.0)  # no position to show, but the connection stays
+            assert len(server.stellarium.status()["clients"]) == 1
+        finally:
+            client.close()
+    finally:
+        server.stop()
