@@ -638,6 +638,7 @@ class MotionSupervisor:
         assert landing.t_star is not None
         if landing.t_star - now > 0.05 * self.mount.clock_rate:
             motion.phase = Phase.LANDING
+            motion.rest_from = now  # readings while it waits for t* show whether it is at rest
             return
         if landing.attempts >= MAX_LANDING_ATTEMPTS:
             log.warning("%s: arrived too late for the landing instant %d times; landing as is",
@@ -664,6 +665,8 @@ class MotionSupervisor:
         assert landing.t_star is not None
         rate = self.mount.clock_rate
         if (landing.t_star - now) / rate > 0.06:
+            if motion.at_rest is None and not landing.freeze and self._at_rest(motion, now):
+                motion.at_rest = now  # tracking steadily: the slew can end at t* itself
             return
         at_real = time.monotonic() + (landing.t_star - self.mount.monotonic()) / rate
         if landing.freeze:
@@ -680,6 +683,12 @@ class MotionSupervisor:
         if motion.restore_tracking is True:
             motion.restore_tracking = None  # already tracking: nothing to restore
         self._after_arrival(motion, skip_tracking=landing.freeze)
+        if motion.at_rest is not None:
+            # Already at rest and tracking: the pointing passes the Alt/Az now, so the slew ends now.
+            motion.at_rest = self.mount.monotonic()
+            motion.phase = Phase.SETTLE_TIME
+            self._tick_motion(motion.at_rest, self.mount.state)
+            return
         self._settle(motion, self.mount.monotonic())
 
     def _after_arrival(self, motion: Motion, skip_tracking: bool = False) -> None:

@@ -359,10 +359,12 @@ class Mount:
         most a second) to avoid a systematic half-second error in its sidereal time.
         """
         now = self.clock() + self.clock_offset
-        wait = 1.0 - now.microsecond / 1e6
-        if 0.0 < wait < 1.0 and self.clock is utc_now:
-            time.sleep(wait)
+        wait = 1.0 - now.microsecond / 1e6  # mount seconds; a fast emulator's clock runs faster
+        if 0.0 < wait < 1.0:
+            time.sleep(wait / self._clock_rate)
             now = self.clock() + self.clock_offset
+        if now.microsecond > 500_000:  # woke a hair early: the boundary is just ahead
+            now += timedelta(microseconds=1_000_000 - now.microsecond)
         offset = self._utc_offset()
         local = now + offset
         hours = offset.total_seconds() / 3600.0

@@ -1,0 +1,303 @@
+"""The motion supervisor, judged by the emulator's own truth (issue 13).
+
+Each test drives the real server over HTTP and checks what the emulated mount physically did: its
+axes' velocity after a stop, where it pointed when the server said a slew was over, whether a
+GOTO was started after an abort. The emulator runs faster than real time (``SPEED``) so slews take
+seconds; every wait is a bounded poll of a condition.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import threading
+import time
+from typing import Any
+
+import pytest
+
+from alpaca_zwo.config import EmulatorSettings, LimitSettings, SafetySettings
+from alpaca_zwo.emulator import MountModel
+from alpaca_zwo.server import AlpacaZwoServer
+from tests.conftest import ServerFactory, make_settings
+from tests.test_telescope import Api, wait_until, wrap12
+
+SPEED = 4.0
+ARCSEC = 1.0 / 3600.0
+SIDEREAL_DEG_S = 360.0 / 86164.0905
+MAX_RATE = 1440 * SIDEREAL_DEG_S  # deg/s, the highest MoveAxis rate
+
+
+def _server(server_factory: ServerFactory, speed: float = SPEED, **sections: Any) -> AlpacaZwoServer:
+    return server_factory(make_settings(emulator=EmulatorSettings(speed=speed, baud=0), **sections))
+
+
+def _model(server: AlpacaZwoServer) -> MountModel:
+    emulator = server.emulators[0]
+    assert emulator is not None
+    return emulator.model
+
+
+def _api(server: AlpacaZwoServer) -> Api:
+    return Api(f"http://127.0.0.1:{server.port}").connect()
+
+
+def _at_rest(model: MountModel) -> bool:
+    """No axis moves except the RA axis at the sidereal rate while tracking."""
+    v_ra, v_dec = model.snapshot()["velocity_deg_s"]
+    tracking_rate = SIDEREAL_DEG_S if model.tracking_state()[0] else 0.0
+    return v_dec == 0.0 and abs(v_ra - tracking_rate) < 1e-9
+
+
+def _mount_seconds(server: AlpacaZwoServer) -> float:
+    emulator = server.emulators[0]
+    assert emulator is not None
+    return emulator.clock.seconds()
+
+
+def _sky_error_arcsec(a: tuple[float, float], b: tuple[float, float]) -> float:
+    """Angular distance between two (RA h, Dec deg) or (alt, az) pairs treated as sky positions."""
+    ra1, d1 = math.radians(a[0] * 15.0), math.radians(a[1])
+    ra2, d2 = math.radians(b[0] * 15.0), math.radians(b[1])
+    cos = math.sin(d1) * math.sin(d2) + math.cos(d1) * math.cos(d2) * math.cos(ra1 - ra2)
+    return math.degrees(math.acos(max(-1.0, min(1.0, cos)))) * 3600.0
+
+
+def _altaz_error_arcsec(got: tuple[float, float], alt: float, az: float) -> float:
+    """Great-circle distance between (alt, az) pairs."""
+    return _sky_error_arcsec((got[1] / 15.0, got[0]), (az / 15.0, alt))
+
+
+def _tracking_off_and_idle(api: Api) -> None:
+    api.ok("Tracking", Tracking=False)
+
+
+# -- 1. Slewing stays true until the mount is at rest ------------------------------------------
+
+
+@pytest.mark.parametrize("kind", ["goto", "moveaxis"])
+def test_abort_keeps_slewing_until_the_mount_is_at_rest(server_factory: ServerFactory, kind: str) -> None:
+    """Observation 1: after AbortSlew (or MoveAxis 0) the mount brakes for seconds; Slewing must stay
+    true until it has stopped, and 3 s after it reads false the mount has moved less than 5″."""
+    server = _server(server_factory)
+    api, model = _api(server), _model(server)
+    api.ok("Tracking", Tracking=True)
+    if kind == "goto":
+        api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-4.0), Declination=70.0)
+        start = _mount_seconds(server)
+        wait_until(lambda: _mount_seconds(server) - start > 1.5, 30, "1.5 s of slew")
+        api.ok("AbortSlew")
+    else:
+        api.ok("Tracking", Tracking=False)
+        api.ok("MoveAxis", Axis=1, Rate=-MAX_RATE)
+        start = _mount_seconds(server)
+        wait_until(lambda: _mount_seconds(server) - start > 3.0, 30, "3 s of MoveAxis")
+        api.ok("MoveAxis", Axis=1, Rate=0.0)
+    assert api.value("Slewing") is True, "Slewing went false the moment the stop was sent"
+    assert not _at_rest(model), "the emulator should still be braking right after the stop"
+    wait_until(lambda: api.value("Slewing") is False, 30, "Slewing to become false")
+    assert _at_rest(model), f"Slewing read false while the axes still moved: {model.snapshot()['velocity_deg_s']}"
+    tracking = api.value("Tracking")
+    before, t0 = model.axes(), _mount_seconds(server)
+    wait_until(lambda: _mount_seconds(server) - t0 >= 3.0, 30, "3 mount seconds")
+    after, t1 = model.axes(), _mount_seconds(server)
+    drift = (360.0 / 86164.0905) * (t1 - t0) if tracking else 0.0
+    moved = max(abs(after[0] - before[0] - drift), abs(after[1] - before[1])) * 3600.0
+    assert moved < 5.0, f"the mount moved {moved:.1f}″ in the 3 s after Slewing read false"
+
+
+# -- 2. Alt/Az and coordinate slews land where asked ---------------------------------------------
+
+
+ALTAZ_CASES = [  # (altitude, azimuth, tracking): short and long slews, east and west of the meridian
+    (45.0, 120.0, False),
+    (30.0, 180.0, False),
+    (60.0, 250.0, False),
+    (50.0, 100.0, True),
+    (35.0, 230.0, True),
+]
+
+
+@pytest.mark.parametrize(("alt", "az", "tracking"), ALTAZ_CASES)
+def test_alt_az_slews_land_within_five_arcseconds(server_factory: ServerFactory, alt: float, az: float,
+                                                   tracking: bool) -> None:
+    """Observation 2: the sky turns during the slew; the landing must still be within 5″ (goal 1″)."""
+    server = _server(server_factory)
+    api, model = _api(server), _model(server)
+    api.ok("Tracking", Tracking=tracking)
+    api.ok("SlewToAltAzAsync", Azimuth=az, Altitude=alt)
+    wait_until(lambda: api.value("Slewing") is False, 60, "the Alt/Az slew to end", interval=0.002)
+    error = _altaz_error_arcsec(model.horizontal(), alt, az)
+    assert error < 5.0, f"landed {error:.2f}″ from Alt {alt} Az {az} (tracking {tracking})"
+    assert api.value("Tracking") is tracking
+    if not tracking:  # frozen on the requested Alt/Az: it stays there
+        t0 = _mount_seconds(server)
+        wait_until(lambda: _mount_seconds(server) - t0 >= 2.0, 30, "2 mount seconds")
+        error = _altaz_error_arcsec(model.horizontal(), alt, az)
+        assert error < 5.0, f"drifted to {error:.2f}″ from Alt {alt} Az {az} after landing"
+
+
+@pytest.mark.parametrize(("ha", "dec"), [(-2.0, 20.0), (1.5, 45.0), (-0.2, 80.0)])
+def test_coordinate_slews_land_within_one_arcsecond(server_factory: ServerFactory, ha: float, dec: float) -> None:
+    """The mount takes whole seconds of RA; the residual is guided away, so the landing is exact."""
+    server = _server(server_factory)
+    api, model = _api(server), _model(server)
+    api.ok("Tracking", Tracking=True)
+    ra = (api.ra_at_ha(ha) + 0.37 / 3600.0) % 24.0  # deliberately between whole seconds
+    dec = dec + 0.43 * ARCSEC
+    api.ok("SlewToCoordinatesAsync", RightAscension=ra, Declination=dec)
+    wait_until(lambda: api.value("Slewing") is False, 60, "the slew to end")
+    error = _sky_error_arcsec(model.position(), (ra, dec))
+    assert error < 1.0, f"landed {error:.2f}″ from the requested RA/Dec"
+    served = (api.value("RightAscension"), api.value("Declination"))
+    assert _sky_error_arcsec(served, (ra, dec)) < 1.0
+
+
+def test_custom_park_position_is_reached_exactly(server_factory: ServerFactory) -> None:
+    from alpaca_zwo.config import ParkSettings
+
+    server = _server(server_factory, park=ParkSettings(mode="custom", ha_hours=-1.25, dec_deg=30.0))
+    api, model = _api(server), _model(server)
+    api.ok("Park")
+    wait_until(lambda: api.value("AtPark") is True, 60, "AtPark")
+    assert api.value("Slewing") is False
+    assert api.value("Tracking") is False
+    ra, dec = model.position()
+    state = api.state()
+    ha = wrap12(state["SiderealTime"] - ra)
+    assert abs(ha - (-1.25)) * 15 * 3600 * math.cos(math.radians(dec)) < 5.0
+    assert abs(dec - 30.0) * 3600 < 5.0
+
+
+# -- 3. An abort is never overtaken ---------------------------------------------------------------
+
+
+def test_abort_during_a_replacing_goto_is_not_overtaken(server_factory: ServerFactory) -> None:
+    """Observation 3: a GOTO that replaces a running one must stop it and wait; an AbortSlew that
+    arrives meanwhile answers at once and the replacing GOTO never starts."""
+    server = _server(server_factory, speed=2.0)
+    api, model = _api(server), _model(server)
+    other = Api(api.base_url, client_id=77).connect()
+    api.ok("Tracking", Tracking=True)
+    api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-3.0), Declination=10.0)
+    wait_until(lambda: model.slewing(), 10, "the first GOTO to run")
+    target_b = (api.ra_at_ha(2.0), 60.0)
+    replies: list[int] = []
+    second = threading.Thread(target=lambda: replies.append(
+        other.put("SlewToCoordinatesAsync", RightAscension=target_b[0], Declination=target_b[1]).error))
+    second.start()
+    wait_until(lambda: not model.slewing(), 10, "the replacing GOTO to stop the first")
+    started = time.monotonic()
+    api.ok("AbortSlew")
+    abort_s = time.monotonic() - started
+    second.join(30)
+    assert abort_s < 0.5, f"AbortSlew waited {abort_s:.2f} s behind the replacing GOTO"
+    assert replies and replies[0] != 0, "the replacing GOTO reported success although it was aborted"
+    wait_until(lambda: api.value("Slewing") is False, 30, "rest after the abort")
+    t0 = _mount_seconds(server)
+    wait_until(lambda: _mount_seconds(server) - t0 >= 3.0, 30, "3 mount seconds")
+    assert not model.slewing(), "a GOTO started after the abort"
+    assert _sky_error_arcsec(model.position(), target_b) > 3600.0, "the mount went to the aborted target"
+
+
+MOTIONS = ["goto-replacing-goto", "moveaxis", "pulse", "park", "home"]
+
+
+def _start(kind: str, api: Api) -> None:
+    if kind == "goto-replacing-goto":
+        api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-2.0), Declination=20.0)
+        threading.Thread(target=lambda: api.put("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(1.0),
+                                                Declination=50.0), daemon=True).start()
+    elif kind == "moveaxis":
+        api.ok("MoveAxis", Axis=0, Rate=MAX_RATE / 2)
+    elif kind == "pulse":
+        api.ok("PulseGuide", Direction=0, Duration=5000)
+    elif kind == "park":
+        api.ok("Park")
+    else:
+        api.ok("FindHome")
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_randomised_abort_trials(server_factory: ServerFactory, seed: int) -> None:
+    """Over seeded trials, AbortSlew at a random moment of each kind of motion leaves the mount at
+    rest within the braking time and starts nothing after it."""
+    rng = random.Random(seed)
+    server = _server(server_factory)
+    api, model = _api(server), _model(server)
+    for kind in rng.sample(MOTIONS, len(MOTIONS)):
+        api.ok("Unpark")
+        api.ok("Tracking", Tracking=True)
+        api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-1.0), Declination=30.0)
+        wait_until(lambda: api.value("Slewing") is False, 60, "the set-up slew")
+        _start(kind, api)
+        delay = rng.uniform(0.0, 2.0)
+        t0 = _mount_seconds(server)
+        wait_until(lambda d=delay, t=t0: _mount_seconds(server) - t >= d, 30, "the random moment")
+        if api.value("AtPark"):
+            continue  # the park finished first: nothing left to abort
+        api.ok("AbortSlew")
+        stopped_at = _mount_seconds(server)
+        wait_until(lambda: api.value("Slewing") is False and api.value("IsPulseGuiding") is False, 30,
+                   f"rest after aborting {kind}")
+        assert _at_rest(model), f"{kind}: still moving after Slewing read false"
+        assert _mount_seconds(server) - stopped_at < 2.0 + 3.0 * SPEED, f"{kind}: took too long to come to rest"
+        t1 = _mount_seconds(server)
+        wait_until(lambda t=t1: _mount_seconds(server) - t >= 2.0, 30, "2 mount seconds")
+        assert not model.slewing(), f"{kind}: a GOTO started after the abort"
+        assert model.snapshot()["moves_deg_s"] == [None, None], f"{kind}: a move started after the abort"
+
+
+# -- 4. Guards that exist only on paper: now wired ------------------------------------------------
+
+
+def test_guide_max_ms_limits_pulse_length(server_factory: ServerFactory) -> None:
+    server = _server(server_factory, safety=SafetySettings(guide_max_ms=1500))
+    api = _api(server)
+    api.ok("Tracking", Tracking=True)
+    assert api.put("PulseGuide", Direction=0, Duration=1501).error == 0x401
+    api.ok("PulseGuide", Direction=0, Duration=1500)
+
+
+def test_sync_after_an_offset_slew_reads_back_the_synced_position(server_factory: ServerFactory) -> None:
+    """Observation (third-party client, 1 in 9): a poll that read the position before a sync must
+    not publish it after the sync. Paced at 9600 baud so polls overlap commands often."""
+    server = server_factory(make_settings(emulator=EmulatorSettings(speed=4.0, baud=9600)))
+    api = _api(server)
+    api.ok("Tracking", Tracking=True)
+    ra, dec = api.ra_at_ha(-1.0), 40.0
+    api.ok("SlewToCoordinatesAsync", RightAscension=ra, Declination=dec)
+    wait_until(lambda: api.value("Slewing") is False, 60, "the first slew")
+    for i in range(8):
+        ra += 1.0 / 60.0 / 15.0  # 1′ offset slews, as a plate-solve-and-centre client makes them
+        api.ok("SlewToCoordinatesAsync", RightAscension=ra, Declination=dec)
+        wait_until(lambda: api.value("Slewing") is False, 60, "the offset slew")
+        synced = ((ra - 63.0 / 3600.0 / 15.0) % 24.0, dec + 20.0 / 3600.0)
+        api.ok("SyncToCoordinates", RightAscension=synced[0], Declination=synced[1])
+        deadline = time.monotonic() + 1.5  # several polls
+        while time.monotonic() < deadline:
+            served = (api.value("RightAscension"), api.value("Declination"))
+            error = _sky_error_arcsec(served, synced)
+            assert error < 2.0, f"round {i}: read {error:.1f}″ from the synced position"
+
+
+# -- braking-aware limits -------------------------------------------------------------------------
+
+
+def test_moveaxis_at_full_rate_stops_before_the_altitude_limit(server_factory: ServerFactory) -> None:
+    floor = 25.0
+    server = _server(server_factory, limits=LimitSettings(min_altitude_deg=floor))
+    api, model = _api(server), _model(server)
+    api.ok("Tracking", Tracking=True)
+    api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-3.0), Declination=20.0)
+    wait_until(lambda: api.value("Slewing") is False, 60, "the set-up slew")
+    assert model.horizontal()[0] > floor + 10.0
+    api.ok("MoveAxis", Axis=1, Rate=-MAX_RATE)  # south: down toward the horizon
+    lowest = 90.0
+    deadline = time.monotonic() + 60
+    while api.value("Slewing") and time.monotonic() < deadline:
+        lowest = min(lowest, model.horizontal()[0])
+    lowest = min(lowest, model.horizontal()[0])
+    assert _at_rest(model)
+    assert lowest >= floor, f"MoveAxis went to {lowest:.3f}°, below the {floor}° limit"
+    assert api.value("Slewing") is False
