@@ -12,12 +12,11 @@ from __future__ import annotations
 import functools
 import threading
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from typing import Any
 
 import pytest
-import requests
 
 from alpaca_zwo._exceptions import (
     ActionNotImplemented,
@@ -29,6 +28,7 @@ from alpaca_zwo._exceptions import (
 from alpaca_zwo.alpaca import HttpServer, ServerInfo, create_app
 from alpaca_zwo.alpaca.members import DEVICE_MEMBERS
 from alpaca_zwo.clients import ClientKey, ClientRegistry, current_client
+from tests.support import AlpacaClient
 
 HANDLERS = frozenset(m.handler for m in DEVICE_MEMBERS["telescope"])
 
@@ -440,35 +440,14 @@ class StandInTelescope:
         self._parked = False
 
 
-@dataclass
-class Alpaca:
-    """A running server plus helpers that send requests the way ConformU's protocol suite does."""
+class Alpaca(AlpacaClient):
+    """A running server plus the shared test client, used at its raw level the way ConformU's protocol suite is."""
 
-    server: HttpServer
-    device: StandInTelescope
-    registry: ClientRegistry
-    session: requests.Session = field(default_factory=requests.Session)
-
-    @property
-    def base(self) -> str:
-        return f"http://127.0.0.1:{self.server.port}"
-
-    def url(self, member: str, number: int = 0) -> str:
-        return f"{self.base}/api/v1/telescope/{number}/{member}"
-
-    def get(self, member: str, params: dict[str, str] | None = None, **kw: Any) -> requests.Response:
-        return self.session.get(self.url(member), params=params, timeout=10, **kw)
-
-    def get_raw(self, member: str, query: str, **kw: Any) -> requests.Response:
-        """GET with the query string exactly as given (blank values, odd casing)."""
-        return self.session.get(f"{self.url(member)}?{query}", timeout=10, **kw)
-
-    def put(self, member: str, data: dict[str, str] | None = None, **kw: Any) -> requests.Response:
-        return self.session.put(self.url(member), data=data or {}, timeout=10, **kw)
-
-    def put_raw(self, member: str, body: str | bytes, **kw: Any) -> requests.Response:
-        headers = {"Content-Type": "application/x-www-form-urlencoded", **kw.pop("headers", {})}
-        return self.session.put(self.url(member), data=body, headers=headers, timeout=10, **kw)
+    def __init__(self, server: HttpServer, device: StandInTelescope, registry: ClientRegistry) -> None:
+        super().__init__(server.port, CLIENT_ID)
+        self.server = server
+        self.device = device
+        self.registry = registry
 
 
 SERVER_INFO = ServerInfo("alpaca-zwo test", "alpaca-zwo project", "0.1.0", "Test bench")

@@ -46,7 +46,7 @@ def test_configured_devices(make_alpaca) -> None:
 
 def test_management_shares_the_transaction_counter(alpaca: Alpaca) -> None:
     assert get(alpaca, "/management/apiversions").json()["ServerTransactionID"] == 1
-    assert alpaca.get("canslew").json()["ServerTransactionID"] == 2
+    assert alpaca.http_get("canslew").json()["ServerTransactionID"] == 2
     assert get(alpaca, "/management/v1/description").json()["ServerTransactionID"] == 3
 
 

@@ -70,8 +70,8 @@ def send(alpaca: Alpaca, m: Member, fields: dict[str, str], **kw: object) -> req
     """Send fields exactly as named (no re-casing), in the query for GET and the form body for PUT."""
     encoded = urlencode(fields)
     if m.verb == "GET":
-        return alpaca.get_raw(m.path, encoded, **kw)
-    return alpaca.put_raw(m.path, encoded, **kw)
+        return alpaca.http_get_query(m.path, encoded, **kw)
+    return alpaca.http_put_body(m.path, encoded, **kw)
 
 
 def assert_json(r: requests.Response, m: Member | None = None, *, ctid: int | None = None,
@@ -176,10 +176,10 @@ def test_post_delete_are_405_with_allow(alpaca: Alpaca, verb: str) -> None:
 
 
 def test_wrong_verb_for_member_is_405(alpaca: Alpaca) -> None:
-    r = alpaca.get("abortslew", OK_IDS)
+    r = alpaca.http_get("abortslew", OK_IDS)
     assert_text(r, 405)
     assert r.headers["Allow"] == "PUT"
-    r = alpaca.put("canslew", OK_IDS)
+    r = alpaca.http_put("canslew", OK_IDS)
     assert_text(r, 405)
     assert r.headers["Allow"] == "GET"
     assert not alpaca.device.calls
@@ -298,30 +298,30 @@ def test_put_missing_parameter(alpaca: Alpaca, m: Member) -> None:
 
 
 def test_string_parameters_may_be_empty(alpaca: Alpaca) -> None:
-    body = assert_json(alpaca.put("action", {**OK_IDS, "Action": "echo", "Parameters": ""}), ctid=CTID)
+    body = assert_json(alpaca.http_put("action", {**OK_IDS, "Action": "echo", "Parameters": ""}), ctid=CTID)
     assert body["Value"] == ""
 
 
 def test_action_parameters_default_to_empty(alpaca: Alpaca) -> None:
     # alpyca's Action(name) sends no Parameters field at all.
-    assert assert_json(alpaca.put("action", {**OK_IDS, "Action": "echo"}), ctid=CTID)["Value"] == ""
+    assert assert_json(alpaca.http_put("action", {**OK_IDS, "Action": "echo"}), ctid=CTID)["Value"] == ""
     assert alpaca.device.calls[-1].kwargs == {"action": "echo", "parameters": ""}
-    assert_text(alpaca.put("action", {**OK_IDS, "Parameters": "x"}))
+    assert_text(alpaca.http_put("action", {**OK_IDS, "Parameters": "x"}))
 
 
 def test_put_arguments_reach_the_handler_typed(alpaca: Alpaca) -> None:
     device = alpaca.device
-    alpaca.put("tracking", {"Tracking": "TRUE"})
+    alpaca.http_put("tracking", {"Tracking": "TRUE"})
     assert device.calls[-1].args == (True,) and device.calls[-1].kwargs == {}
-    alpaca.put("moveaxis", {"Axis": "1", "Rate": "-1.5"})
+    alpaca.http_put("moveaxis", {"Axis": "1", "Rate": "-1.5"})
     assert device.calls[-1].kwargs == {"axis": 1, "rate": -1.5}
-    alpaca.put("pulseguide", {"Direction": "3", "Duration": "0"})
+    alpaca.http_put("pulseguide", {"Direction": "3", "Duration": "0"})
     assert device.calls[-1].kwargs == {"direction": 3, "duration": 0}
-    alpaca.put("slewtocoordinatesasync", {"RightAscension": "23.9999999999", "Declination": "-90"})
+    alpaca.http_put("slewtocoordinatesasync", {"RightAscension": "23.9999999999", "Declination": "-90"})
     assert device.calls[-1].kwargs == {"right_ascension": 23.9999999999, "declination": -90.0}
-    alpaca.put("commandblind", {"Command": ":GR#", "Raw": "true"})
+    alpaca.http_put("commandblind", {"Command": ":GR#", "Raw": "true"})
     assert device.calls[-1].kwargs == {"command": ":GR#", "raw": True}
-    alpaca.put("utcdate", {"UTCDate": "2016-03-04T17:45:31.1234567Z"})
+    alpaca.http_put("utcdate", {"UTCDate": "2016-03-04T17:45:31.1234567Z"})
     assert device.calls[-1].args == (datetime(2016, 3, 4, 17, 45, 31, 123456, tzinfo=timezone.utc),)
 
 
@@ -332,7 +332,7 @@ def test_put_reads_only_the_body(alpaca: Alpaca) -> None:
 
 
 def test_put_body_not_utf8_is_400(alpaca: Alpaca) -> None:
-    assert_text(alpaca.put_raw("tracking", b"Tracking=True&Extra=\xff\xfe"))
+    assert_text(alpaca.http_put_body("tracking", b"Tracking=True&Extra=\xff\xfe"))
 
 
 # --- TestBadIdValues -------------------------------------------------------------------------------
@@ -353,14 +353,14 @@ def test_bad_id_values_are_400(alpaca: Alpaca, m: Member, key: str, bad: str) ->
 
 @pytest.mark.parametrize("key", ["ClientID", "ClientTransactionID"])
 def test_id_out_of_uint32_range_is_400(alpaca: Alpaca, key: str) -> None:
-    assert_text(alpaca.get("canslew", {**OK_IDS, key: "4294967296"}))
-    assert_json(alpaca.get("canslew", {**OK_IDS, key: "4294967295"}))
+    assert_text(alpaca.http_get("canslew", {**OK_IDS, key: "4294967296"}))
+    assert_json(alpaca.http_get("canslew", {**OK_IDS, key: "4294967295"}))
 
 
 def test_absent_ids_echo_zero(alpaca: Alpaca) -> None:
-    assert_json(alpaca.get("canslew"), ctid=0)
+    assert_json(alpaca.http_get("canslew"), ctid=0)
     assert alpaca.device.calls[-1].client == ClientKey("127.0.0.1", 0)
-    assert_json(alpaca.put("abortslew"), member("PUT", "abortslew"), ctid=0)
+    assert_json(alpaca.http_put("abortslew"), member("PUT", "abortslew"), ctid=0)
 
 
 # --- transaction IDs ---------------------------------------------------------------------------------
@@ -370,16 +370,16 @@ def test_ctid_echo_and_stid_from_one(alpaca: Alpaca) -> None:
     stids = []
     for ctid in range(1, 21):
         member = "canslew" if ctid % 2 else "tracking"
-        r = alpaca.get(member, {"ClientID": "1", "ClientTransactionID": str(ctid * 7)})
+        r = alpaca.http_get(member, {"ClientID": "1", "ClientTransactionID": str(ctid * 7)})
         body = assert_json(r, ctid=ctid * 7)
         stids.append(body["ServerTransactionID"])
     assert stids == list(range(1, 21))
 
 
 def test_stid_counts_errors_and_puts(alpaca: Alpaca) -> None:
-    assert alpaca.get("targetdeclination").json()["ServerTransactionID"] == 1
-    assert alpaca.put("park").json()["ServerTransactionID"] == 2
-    assert alpaca.get("canslew").json()["ServerTransactionID"] == 3
+    assert alpaca.http_get("targetdeclination").json()["ServerTransactionID"] == 1
+    assert alpaca.http_put("park").json()["ServerTransactionID"] == 2
+    assert alpaca.http_get("canslew").json()["ServerTransactionID"] == 3
 
 
 def test_stid_unique_and_monotonic_across_threads(make_alpaca) -> None:
@@ -429,49 +429,49 @@ def test_stid_unique_and_monotonic_across_threads(make_alpaca) -> None:
 
 
 def test_exact_json_bytes(alpaca: Alpaca) -> None:
-    r = alpaca.get("canslew", {"ClientID": "1", "ClientTransactionID": "20"})
+    r = alpaca.http_get("canslew", {"ClientID": "1", "ClientTransactionID": "20"})
     assert r.content == b'{"Value":true,"ClientTransactionID":20,"ServerTransactionID":1,"ErrorNumber":0,' \
                         b'"ErrorMessage":""}'
-    r = alpaca.put("siteelevation", {"SiteElevation": "-400", "ClientID": "1", "ClientTransactionID": "23"})
+    r = alpaca.http_put("siteelevation", {"SiteElevation": "-400", "ClientID": "1", "ClientTransactionID": "23"})
     assert json.loads(r.content) == {"ClientTransactionID": 23, "ServerTransactionID": 2, "ErrorNumber": 0x401,
                                      "ErrorMessage": "SiteElevation -400.0 is outside -300..10000"}
 
 
 def test_structured_values(alpaca: Alpaca) -> None:
-    assert alpaca.get("utcdate").json()["Value"] == "2024-01-31T21:05:00.1234560Z"
-    assert alpaca.get("axisrates", {"Axis": "0"}).json()["Value"] == [{"Minimum": 0.0, "Maximum": 4.0}]
-    assert alpaca.get("axisrates", {"Axis": "2"}).json()["Value"] == []
-    assert alpaca.get("trackingrates").json()["Value"] == [0, 1, 2]
-    assert alpaca.get("supportedactions").json()["Value"] == ["echo"]
-    state = alpaca.get("devicestate").json()["Value"]
+    assert alpaca.http_get("utcdate").json()["Value"] == "2024-01-31T21:05:00.1234560Z"
+    assert alpaca.http_get("axisrates", {"Axis": "0"}).json()["Value"] == [{"Minimum": 0.0, "Maximum": 4.0}]
+    assert alpaca.http_get("axisrates", {"Axis": "2"}).json()["Value"] == []
+    assert alpaca.http_get("trackingrates").json()["Value"] == [0, 1, 2]
+    assert alpaca.http_get("supportedactions").json()["Value"] == ["echo"]
+    state = alpaca.http_get("devicestate").json()["Value"]
     assert all(set(item) == {"Name", "Value"} for item in state)
     as_dict = {item["Name"]: item["Value"] for item in state}
     assert as_dict["UTCDate"] == "2024-01-31T21:05:00.1234560Z"
     assert as_dict["Tracking"] is False
-    assert alpaca.get("interfaceversion").json()["Value"] == 4
+    assert alpaca.http_get("interfaceversion").json()["Value"] == 4
 
 
 def test_utc_date_round_trip(alpaca: Alpaca) -> None:
-    assert_json(alpaca.put("utcdate", {"UTCDate": "2022-12-04T17:45:31.1234567Z"}))
-    assert alpaca.get("utcdate").json()["Value"] == "2022-12-04T17:45:31.1234560Z"
+    assert_json(alpaca.http_put("utcdate", {"UTCDate": "2022-12-04T17:45:31.1234567Z"}))
+    assert alpaca.http_get("utcdate").json()["Value"] == "2022-12-04T17:45:31.1234560Z"
 
 
 def test_value_is_the_type_default_on_error(alpaca: Alpaca) -> None:
-    body = assert_json(alpaca.get("targetdeclination", OK_IDS), ctid=CTID, error=0x402)
+    body = assert_json(alpaca.http_get("targetdeclination", OK_IDS), ctid=CTID, error=0x402)
     assert body["Value"] == 0.0 and isinstance(body["Value"], float) and "not been set" in body["ErrorMessage"]
 
 
 def test_put_error_has_no_value(alpaca: Alpaca) -> None:
-    alpaca.put("park")
-    body = assert_json(alpaca.put("tracking", {**OK_IDS, "Tracking": "True"}), member("PUT", "tracking"),
+    alpaca.http_put("park")
+    body = assert_json(alpaca.http_put("tracking", {**OK_IDS, "Tracking": "True"}), member("PUT", "tracking"),
                        ctid=CTID, error=0x408)
     assert "Value" not in body
 
 
 def test_value_returning_put_error_has_default_value(alpaca: Alpaca) -> None:
-    body = alpaca.put("action", {"Action": "nope", "Parameters": ""}).json()
+    body = alpaca.http_put("action", {"Action": "nope", "Parameters": ""}).json()
     assert body["ErrorNumber"] == 0x40C and body["Value"] == ""
-    assert alpaca.put("action", {"Action": "echo", "Parameters": "hi"}).json()["Value"] == "hi"
+    assert alpaca.http_put("action", {"Action": "echo", "Parameters": "hi"}).json()["Value"] == "hi"
 
 
 @pytest.mark.parametrize("error", [MemberNotImplemented, InvalidValue, ValueNotSet, NotConnected, Parked,
@@ -486,12 +486,12 @@ def test_alpaca_errors_are_200_with_number(alpaca: Alpaca, error: type[AlpacaErr
 
 def test_driver_error_keeps_its_own_number(alpaca: Alpaca) -> None:
     alpaca.device.faults["slewing"] = DriverError("link lost", 0x520)
-    assert_json(alpaca.get("slewing"), error=0x520)
+    assert_json(alpaca.http_get("slewing"), error=0x520)
 
 
 def test_error_number_zero_is_never_sent_as_success(alpaca: Alpaca) -> None:
     alpaca.device.faults["slewing"] = AlpacaError("", 0)
-    body = assert_json(alpaca.get("slewing"), error=0x500)
+    body = assert_json(alpaca.http_get("slewing"), error=0x500)
     assert body["ErrorMessage"] == "AlpacaError"
 
 
@@ -499,14 +499,14 @@ def test_exploding_handler_is_500_and_server_keeps_serving(alpaca: Alpaca,
                                                             caplog: pytest.LogCaptureFixture) -> None:
     alpaca.device.faults["slewing"] = RuntimeError("boom")
     with caplog.at_level(logging.ERROR, logger="alpaca_zwo.alpaca"):
-        r = alpaca.get("slewing", OK_IDS)
+        r = alpaca.http_get("slewing", OK_IDS)
     assert "RuntimeError: boom" in assert_text(r, 500)
     assert any(rec.exc_info and "boom" in str(rec.exc_info[1]) for rec in caplog.records)
-    assert_json(alpaca.get("canslew", OK_IDS), ctid=CTID)
-    r = alpaca.put("abortslew", OK_IDS)
+    assert_json(alpaca.http_get("canslew", OK_IDS), ctid=CTID)
+    r = alpaca.http_put("abortslew", OK_IDS)
     assert_json(r, member("PUT", "abortslew"), ctid=CTID)
     del alpaca.device.faults["slewing"]
-    assert alpaca.get("slewing").json()["Value"] is False
+    assert alpaca.http_get("slewing").json()["Value"] is False
 
 
 @pytest.mark.parametrize(("member", "value"), [("rightascension", float("nan")), ("declination", float("inf")),
@@ -514,12 +514,12 @@ def test_exploding_handler_is_500_and_server_keeps_serving(alpaca: Alpaca,
 def test_unencodable_values_are_500(alpaca: Alpaca, member: str, value: object) -> None:
     handler = next(m.handler for m in MEMBERS if m.path == member)
     alpaca.device.faults[handler] = lambda: value
-    assert_text(alpaca.get(member), 500)
-    assert_json(alpaca.get("canslew"))
+    assert_text(alpaca.http_get(member), 500)
+    assert_json(alpaca.http_get("canslew"))
 
 
 def test_handler_sees_current_client_and_registry_records_it(alpaca: Alpaca) -> None:
-    alpaca.get("canslew", OK_IDS, headers={"User-Agent": "ConformUniversal/4.4.0"})
+    alpaca.http_get("canslew", OK_IDS, headers={"User-Agent": "ConformUniversal/4.4.0"})
     assert alpaca.device.calls[-1].client == ClientKey("127.0.0.1", CLIENT_ID)
     [activity] = alpaca.registry.snapshot()
     assert activity.key == ClientKey("127.0.0.1", CLIENT_ID)
@@ -528,28 +528,28 @@ def test_handler_sees_current_client_and_registry_records_it(alpaca: Alpaca) -> 
 
 
 def test_forwarded_headers_do_not_spoof_the_client(alpaca: Alpaca) -> None:
-    alpaca.get("canslew", OK_IDS, headers={"X-Forwarded-For": "10.9.8.7", "Forwarded": "for=10.9.8.7"})
+    alpaca.http_get("canslew", OK_IDS, headers={"X-Forwarded-For": "10.9.8.7", "Forwarded": "for=10.9.8.7"})
     assert alpaca.device.calls[-1].client == ClientKey("127.0.0.1", CLIENT_ID)
 
 
 def test_conformu_startup_sequence(alpaca: Alpaca) -> None:
     device = alpaca.device
-    assert_json(alpaca.put_raw("connected", "ClientID=123456&ClientTransactionID=67890&Connected=True"),
+    assert_json(alpaca.http_put_body("connected", "ClientID=123456&ClientTransactionID=67890&Connected=True"),
                 ctid=CTID, m=member("PUT", "connected"))
     assert device.connected() is True
-    assert_json(alpaca.put_raw("connected", "ClientID=123456&ClientTransactionID=67890&Connected=False"),
+    assert_json(alpaca.http_put_body("connected", "ClientID=123456&ClientTransactionID=67890&Connected=False"),
                 ctid=CTID, m=member("PUT", "connected"))
     assert device.connected() is False
-    assert_json(alpaca.put_raw("connected", "ClientTransactionID=67890&Connected=True&ClientID=123456"),
+    assert_json(alpaca.http_put_body("connected", "ClientTransactionID=67890&Connected=True&ClientID=123456"),
                 ctid=CTID, m=member("PUT", "connected"))
     assert device.connected() is True
-    body = assert_json(alpaca.get("interfaceversion", OK_IDS), ctid=CTID)
+    body = assert_json(alpaca.http_get("interfaceversion", OK_IDS), ctid=CTID)
     assert body["Value"] == 4 and body["ServerTransactionID"] == 4
 
 
 @pytest.mark.parametrize("bad", ["", "123456", "asdqwe"])
 def test_bad_connected_values_are_400(alpaca: Alpaca, bad: str) -> None:
-    assert_text(alpaca.put("connected", {**OK_IDS, "Connected": bad}))
+    assert_text(alpaca.http_put("connected", {**OK_IDS, "Connected": bad}))
     assert not alpaca.device.calls
 
 
@@ -559,8 +559,8 @@ def test_bad_connected_values_are_400(alpaca: Alpaca, bad: str) -> None:
 def test_oversize_body_is_413(make_alpaca) -> None:
     alpaca = make_alpaca(max_body_bytes=100)
     body = "Tracking=True&ClientTransactionID=1&Pad="
-    assert_json(alpaca.put_raw("tracking", body + "x" * (100 - len(body))))
-    assert_text(alpaca.put_raw("tracking", body + "x" * (101 - len(body))), 413)
+    assert_json(alpaca.http_put_body("tracking", body + "x" * (100 - len(body))))
+    assert_text(alpaca.http_put_body("tracking", body + "x" * (101 - len(body))), 413)
     assert len(alpaca.device.called("set_tracking")) == 1
 
 
@@ -572,14 +572,14 @@ def test_oversize_chunked_body_is_413(make_alpaca) -> None:
         for _ in range(10):
             yield b"x" * 20
 
-    assert_text(alpaca.put_raw("tracking", chunks()), 413)  # type: ignore[arg-type]
+    assert_text(alpaca.http_put_body("tracking", chunks()), 413)  # type: ignore[arg-type]
     assert not alpaca.device.calls
-    assert_json(alpaca.put_raw("tracking", iter([b"Tracking=", b"True"])))  # type: ignore[arg-type]
+    assert_json(alpaca.http_put_body("tracking", iter([b"Tracking=", b"True"])))  # type: ignore[arg-type]
 
 
 def test_default_limit_accepts_normal_bodies(alpaca: Alpaca) -> None:
-    assert_json(alpaca.put("action", {"Action": "echo", "Parameters": "p" * 60000}))
-    assert_text(alpaca.put("action", {"Action": "echo", "Parameters": "p" * 70000}), 413)
+    assert_json(alpaca.http_put("action", {"Action": "echo", "Parameters": "p" * 60000}))
+    assert_text(alpaca.http_put("action", {"Action": "echo", "Parameters": "p" * 70000}), 413)
 
 
 class _SetupPage:
@@ -595,20 +595,20 @@ def test_basic_auth(make_alpaca) -> None:
         assert_text(r, 401)
         assert r.headers["WWW-Authenticate"].startswith("Basic realm=")
     for auth in [("astro", "wrong"), ("other", "pa:ss wörd"), ("astro", "pa:ss"), ("", "")]:
-        assert_text(alpaca.get("canslew", auth=auth), 401)
+        assert_text(alpaca.http_get("canslew", auth=auth), 401)
     for header in ["Bearer abc", "Basic !!!notbase64", "Basic", "Basic YXN0cm8="]:
-        assert_text(alpaca.get("canslew", headers={"Authorization": header}), 401)
-    assert_text(alpaca.put("tracking", {"Tracking": "True"}), 401)
+        assert_text(alpaca.http_get("canslew", headers={"Authorization": header}), 401)
+    assert_text(alpaca.http_put("tracking", {"Tracking": "True"}), 401)
     assert not alpaca.device.calls
     good = requests.auth.HTTPBasicAuth("astro", "pa:ss wörd".encode())
-    assert_json(alpaca.get("canslew", auth=good))
-    assert_json(alpaca.put("tracking", {"Tracking": "True"}, auth=good))
+    assert_json(alpaca.http_get("canslew", auth=good))
+    assert_json(alpaca.http_put("tracking", {"Tracking": "True"}, auth=good))
     assert alpaca.session.get(alpaca.base + "/setup", auth=good, timeout=10).text == "<h1>setup</h1>"
     assert alpaca.session.get(alpaca.base + "/management/apiversions", auth=good, timeout=10).json()["Value"] == [1]
 
 
 def test_no_auth_by_default(alpaca: Alpaca) -> None:
-    r = alpaca.get("canslew", headers={"Authorization": "Basic Zm9vOmJhcg=="})
+    r = alpaca.http_get("canslew", headers={"Authorization": "Basic Zm9vOmJhcg=="})
     assert_json(r)
     assert "WWW-Authenticate" not in r.headers
 
@@ -622,9 +622,9 @@ def test_extra_routes_mounted(make_alpaca) -> None:
 
 def test_logging(alpaca: Alpaca, caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.DEBUG, logger="alpaca_zwo.alpaca"):
-        alpaca.get("canslew", OK_IDS)
-        alpaca.put("tracking", {**OK_IDS, "Tracking": "True"})
-        alpaca.get("nope", OK_IDS)
+        alpaca.http_get("canslew", OK_IDS)
+        alpaca.http_put("tracking", {**OK_IDS, "Tracking": "True"})
+        alpaca.http_get("nope", OK_IDS)
     access = [r.getMessage() for r in caplog.records if r.name == "alpaca_zwo.alpaca.access"]
     assert len(access) == 3
     assert "GET /api/v1/telescope/0/canslew" in access[0] and "ctid=67890" in access[0]
@@ -636,7 +636,7 @@ def test_logging(alpaca: Alpaca, caplog: pytest.LogCaptureFixture) -> None:
 
 def test_put_errors_are_logged_at_info(alpaca: Alpaca, caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.INFO, logger="alpaca_zwo.alpaca"):
-        alpaca.put("siteelevation", {**OK_IDS, "SiteElevation": "-400"})
+        alpaca.http_put("siteelevation", {**OK_IDS, "SiteElevation": "-400"})
     assert [r.getMessage() for r in caplog.records] == [
         "SiteElevation(SiteElevation=-400.0) by 127.0.0.1#123456: error 0x401 "
         "SiteElevation -400.0 is outside -300..10000"]
@@ -644,7 +644,7 @@ def test_put_errors_are_logged_at_info(alpaca: Alpaca, caplog: pytest.LogCapture
 
 def test_access_log_suppressible(alpaca: Alpaca, caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.INFO, logger="alpaca_zwo.alpaca"):
-        alpaca.get("canslew", OK_IDS)
+        alpaca.http_get("canslew", OK_IDS)
     assert not [r for r in caplog.records if r.name == "alpaca_zwo.alpaca.access"]
 
 

@@ -169,7 +169,7 @@ class AlpacaClient:
                  call_timeout: float = HANG_CUTOFF_S) -> None:
         self.base = local_url(base) if isinstance(base, int) else base.rstrip("/")
         self.client_id = client_id
-        self.device = device
+        self.device_number = device
         self.log = log if log is not None else CallLog()
         self.timeout = timeout  # raw requests
         self.call_timeout = call_timeout  # decoded calls: long, so a hang is measured
@@ -182,7 +182,7 @@ class AlpacaClient:
 
     def url(self, member: str, number: int | None = None) -> str:
         """The member's URL, spelled exactly as given (wire tests need odd casing)."""
-        return f"{self.base}/api/v1/telescope/{self.device if number is None else number}/{member}"
+        return f"{self.base}/api/v1/telescope/{self.device_number if number is None else number}/{member}"
 
     # -- raw HTTP: nothing added -----------------------------------------------------------------
 
