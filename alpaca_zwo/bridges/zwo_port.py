@@ -267,6 +267,9 @@ class ZwoPortBridge:
             refused = None
         except Refusal as refusal:
             reply, refused = refusal.reply, refusal.reason
+        except Exception:  # a bug must not end the program's connection; the mount would just be silent
+            log.exception("ZWO port: %s :%s# failed", program.address, body)
+            reply, refused = None, None
         known = reply is not None or refused is not None or match_command(body) is not None
         if known:
             program.junk = 0

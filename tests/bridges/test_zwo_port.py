@@ -409,3 +409,29 @@ def test_junk_floods_and_connection_storms_drop_only_the_offender(server: Alpaca
     assert len(latencies) > 100
     assert _p99(latencies) <= max(0.010, 2 * _p99(baseline) + 0.005), (_p99(latencies), _p99(baseline))
     assert alpaca.Connected
+
+
+def test_off_by_default_and_the_command_line_turns_it_on(server_factory: ServerFactory) -> None:
+    from alpaca_zwo.server import Overrides
+
+    assert server_factory(make_settings()).zwo_port is None
+    server = server_factory(make_settings(zwo_port=ZwoPortSettings(host="127.0.0.1")), Overrides(zwo_port=0),
+                            config_name="other.toml")
+    client = ZwoClient(server.zwo_port.port)
+    try:
+        assert client.ask(":GVP#") == b"AM5#"
+        status = server.zwo_port.status()
+        assert status["enabled"] and status["port"] == server.zwo_port.port
+        assert [p["last_command"] for p in status["programs"]] == [":GVP#"]
+    finally:
+        client.close()
+
+
+def test_allow_dangerous_accepts_only_guarded_codes() -> None:
+    from alpaca_zwo._exceptions import ConfigError
+    from alpaca_zwo.config import settings_from_dict
+
+    settings = settings_from_dict({"zwo_port": {"allow_dangerous": ["AA", "all"]}})
+    assert settings.zwo_port.allow_dangerous == ("AA", "all")
+    with pytest.raises(ConfigError, match="allow_dangerous"):
+        settings_from_dict({"zwo_port": {"allow_dangerous": ["GR"]}})

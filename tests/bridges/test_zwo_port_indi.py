@@ -244,5 +244,7 @@ def test_indi_polling_adds_no_serial_traffic(indi_process: Indi, server: AlpacaZ
     commands_before = bridge()["programs"][0]["commands"]
     with_indi = exchanges_over_window()
     indi_commands = bridge()["programs"][0]["commands"] - commands_before
+    print(f"serial exchanges in {window:.0f} s: {without} without INDI, {with_indi} with INDI polling "
+          f"({indi_commands} ZWO-port commands)")
     assert indi_commands >= 3 * window  # INDI polled (:GU# :GAT# :GR# :GD# :Gm# about once a second)
     assert with_indi <= without * 1.2 + 4, (with_indi, without, indi_commands)
