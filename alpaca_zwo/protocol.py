@@ -866,8 +866,7 @@ class RequestFramer:
                     self.dropped += 1
                     self._body = []
                     continue
-                self._append(":")
-                if self._body is None:
+                if not self._append(":"):
                     continue
             if char == ":":
                 self._colon = True
@@ -878,10 +877,12 @@ class RequestFramer:
                 self._append(char)
         return bodies
 
-    def _append(self, char: str) -> None:
+    def _append(self, char: str) -> bool:
+        """Add ``char`` to the open body; False when that made it too long and it was dropped."""
         assert self._body is not None
         if len(self._body) >= self.MAX_LENGTH:
             self._body = None  # a runaway command: the mount discards it
             self.dropped += 1
-            return
+            return False
         self._body.append(char)
+        return True

@@ -122,20 +122,45 @@ def firmware_from_args(args: argparse.Namespace) -> FirmwareVariant:
     return preset(args.preset, **overrides)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    firmware = firmware_from_args(args)
-    # Handlers first: a supervisor may send SIGTERM as soon as it has read the endpoint lines.
+def _stop_on_signals() -> threading.Event:
+    """SIGTERM where the OS has it, Ctrl-C everywhere, Ctrl-Break (SIGBREAK) on Windows: set the event."""
     stop = threading.Event()
 
     def _on_signal(_signum: int, _frame: FrameType | None) -> None:
         stop.set()
 
-    # SIGTERM where the OS has it, Ctrl-C everywhere, Ctrl-Break (SIGBREAK) on Windows.
     for name in ("SIGTERM", "SIGINT", "SIGBREAK"):
         if hasattr(signal, name):
             signal.signal(getattr(signal, name), _on_signal)
+    return stop
+
+
+def _start_control(server: EmulatorServer, port: int | None) -> ControlServer | None:
+    """The control channel when asked for; OSError when its port cannot be opened."""
+    return ControlServer(server, port=port).start() if port is not None else None
+
+
+def _announce(args: argparse.Namespace, firmware: FirmwareVariant, clock: ScaledClock, server: EmulatorServer,
+              control: ControlServer | None) -> None:
+    """The endpoint lines a supervisor (or a test) reads, flushed at once."""
+    print(
+        f"alpaca-zwo-emulator: {firmware.describe()}, baud {server.baud}, "
+        f"speed {clock.speed:g}x, start {clock.now().isoformat(timespec='seconds')}"
+    )
+    print(f"tcp {args.host}:{server.port}")
+    if server.pty_path:
+        print(f"pty {server.pty_path}")
+    if control is not None:
+        print(f"control 127.0.0.1:{control.port}")
+    sys.stdout.flush()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    firmware = firmware_from_args(args)
+    # Handlers first: a supervisor may send SIGTERM as soon as it has read the endpoint lines.
+    stop = _stop_on_signals()
     if args.pty and (reason := pty_support_error()):
         print(f"alpaca-zwo-emulator: {reason}", file=sys.stderr)
         return 2
@@ -148,26 +173,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         print(f"alpaca-zwo-emulator: cannot listen on {args.host}:{args.port}: {exc}", file=sys.stderr)
         return 2
-    control: ControlServer | None = None
-    if args.control_port is not None:
-        try:
-            control = ControlServer(server, port=args.control_port).start()
-        except OSError as exc:
-            print(f"alpaca-zwo-emulator: cannot open control port {args.control_port}: {exc}", file=sys.stderr)
-            server.stop()
-            return 2
-
-    print(
-        f"alpaca-zwo-emulator: {firmware.describe()}, baud {server.baud}, "
-        f"speed {clock.speed:g}x, start {clock.now().isoformat(timespec='seconds')}"
-    )
-    print(f"tcp {args.host}:{server.port}")
-    if server.pty_path:
-        print(f"pty {server.pty_path}")
-    if control is not None:
-        print(f"control 127.0.0.1:{control.port}")
-    sys.stdout.flush()
-
+    try:
+        control = _start_control(server, args.control_port)
+    except OSError as exc:
+        print(f"alpaca-zwo-emulator: cannot open control port {args.control_port}: {exc}", file=sys.stderr)
+        server.stop()
+        return 2
+    _announce(args, firmware, clock, server, control)
     try:
         while not stop.wait(0.5):
             pass
