@@ -1,6 +1,6 @@
 """End to end with the real Stellarium: its telescope reticle follows the mount, its gotos move it.
 
-Needs Debian's ``stellarium``, ``xvfb``, ``xauth``, ``libgl1-mesa-dri`` and ``imagemagick``
+Needs Debian's ``stellarium``, ``xvfb``, ``libgl1-mesa-dri`` (OpenGL in software) and ``imagemagick``
 (scripts/run-tests installs them) and root for a private network namespace, in which the
 driver (stellarium_e2e_driver.py) runs the server, Xvfb and Stellarium with nothing but loopback.
 About 1.5 minutes on two cores, most of it Stellarium's start and three real-time slews.
@@ -20,7 +20,7 @@ from tests.netns import REPO_ROOT, missing_privilege
 
 pytestmark = pytest.mark.timeout(600)
 
-TOOLS = {"stellarium": "stellarium", "Xvfb": "xvfb", "xauth": "xauth", "import": "imagemagick",
+TOOLS = {"stellarium": "stellarium", "Xvfb": "xvfb", "import": "imagemagick",
          "identify": "imagemagick", "unshare": "util-linux", "ip": "iproute2"}
 
 
