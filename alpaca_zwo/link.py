@@ -153,8 +153,10 @@ class Link:
     DRAIN_LIMIT_S = 1.0
     READ_SLICE_S = 0.05
     PROBE_TIMEOUT_S = 1.0
-    #: After a one-byte reply, this much silence (plus 3 byte times) proves nothing else came with it.
+    #: After a one-byte reply, this much silence (plus 3 byte times) proves nothing else came with it;
+    #: a GOTO (rare, and the one whose false success would move the mount) waits longer.
     TRAILING_QUIET_S = 0.003
+    GOTO_QUIET_S = 0.03
     PROBE = protocol.query("GVP")
 
     def __init__(
@@ -315,7 +317,8 @@ class Link:
             self._suspect = True
             self._record(req.text, None, started, f"timeout: {exc}")
             raise LinkTimeout(f"no complete reply to {req.text} within {self.timeout:.1f} s") from exc
-        if req.kind in (protocol.ReplyKind.CHAR, protocol.ReplyKind.GOTO) and self._trailing_bytes():
+        quiet = self.GOTO_QUIET_S if req.kind is protocol.ReplyKind.GOTO else self.TRAILING_QUIET_S
+        if req.kind in (protocol.ReplyKind.CHAR, protocol.ReplyKind.GOTO) and self._trailing_bytes(quiet):
             # A one-byte answer with more right behind it ('0' then 'e5#'): which byte was the
             # reply is unknowable, so it is neither success nor failure.
             self._suspect = True
@@ -327,13 +330,13 @@ class Link:
             raise ProtocolError(f"implausible reply {reply!r} to {req.text}")
         return reply
 
-    def _trailing_bytes(self) -> bool:
-        """Whether bytes arrive right behind a reply (within a few byte times of silence)."""
+    def _trailing_bytes(self, quiet_s: float) -> bool:
+        """Whether bytes arrive right behind a reply (within ``quiet_s`` and a few byte times)."""
         port = self._port
         if port.in_waiting:
             return True
         byte_time = 10.0 / self.baud if self.baud else 0.0
-        deadline = time.monotonic() + self.TRAILING_QUIET_S + 3 * byte_time
+        deadline = time.monotonic() + quiet_s + 3 * byte_time
         while time.monotonic() < deadline:
             if port.in_waiting:
                 return True

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import socket
 import threading
+import time
 from collections.abc import Iterator
 
 import pytest
@@ -108,3 +109,96 @@ def test_junk_never_shifts_replies(junk_link: tuple[Link, JunkMount], junk: byte
         except (ProtocolError, LinkTimeout):
             continue
     pytest.fail(f"the link never got back in step after junk {junk!r}")
+
+
+# -- replies that are not exactly one known form are never success ---------------------------------
+
+#: Commands whose success is a single byte, set up so that the mount refuses them: a GOTO below the
+#: horizon (e5#) and a target Dec out of range ('0'). Junk in front of a refusal must never read
+#: as success, however it is split on the wire.
+REFUSED = {"MS": p.query("MS"), "Sd": p.request("Sd", "+91*00:00")}
+#: Junk made of the bytes that open a reply ('0', '1', 'e'), digits and noise, never ':' or '#'.
+PREFIX = st.binary(min_size=1, max_size=6).filter(lambda b: b":" not in b and b"#" not in b) | st.sampled_from(
+    [b"0", b"1", b"e", b"00", b"10", b"1e"])
+
+
+class SplitMount(JunkMount):
+    """A JunkMount that writes the junk and the reply as separate, slightly delayed writes."""
+
+    gap_s = 0.0
+
+    def _serve(self) -> None:
+        while True:
+            try:
+                conn, _ = self.listener.accept()
+            except OSError:
+                return
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)  # a serial line has no Nagle delay
+            framer = p.RequestFramer()
+            with conn:
+                while True:
+                    try:
+                        data = conn.recv(4096)
+                    except OSError:
+                        break
+                    if not data:
+                        break
+                    for body in framer.feed(data):
+                        reply = self.responder.handle(body)
+                        with self.lock:
+                            junk, self.junk = self.junk, b""
+                        if junk:
+                            conn.sendall(junk)
+                            time.sleep(self.gap_s)
+                        if reply is not None:
+                            conn.sendall(reply.encode("latin-1"))
+
+
+@pytest.fixture(scope="module")
+def split_link() -> Iterator[tuple[Link, SplitMount]]:
+    mount = SplitMount()
+    mount.responder.model.set_latitude(51.5)
+    mount.responder.model.set_longitude(0.0)
+    link = Link(f"socket://127.0.0.1:{mount.port}", timeout=0.25)
+    link.open()
+    link.expect_probe_reply("AM5")
+    # Target below the horizon: every :MS# is refused with e5#.
+    lst = mount.responder.model.sidereal_time()
+    link.execute(p.set_target_ra((lst + 12.0) % 24.0))
+    link.execute(p.set_target_dec(-60.0))
+    yield link, mount
+    link.close()
+    mount.close()
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(junk=PREFIX, which=st.sampled_from(sorted(REFUSED)), gap_ms=st.sampled_from([0.0, 0.5, 2.0]))
+def test_junk_before_a_refusal_is_never_success(split_link: tuple[Link, SplitMount], junk: bytes, which: str,
+                                                gap_ms: float) -> None:
+    link, mount = split_link
+    mount.gap_s = gap_ms / 1000.0
+    mount.arm(junk, False)
+    try:
+        value = link.execute(REFUSED[which])
+    except (ProtocolError, LinkTimeout, MountReplyError):
+        pass  # ambiguous, garbled or refused: all honest
+    else:
+        pytest.fail(f"junk {junk!r} + refusal of :{which}# was taken as success ({value!r})")
+    for _ in range(3):  # and the line gets back in step
+        try:
+            assert link.execute(p.query("GVP")) == "AM5"
+            return
+        except (ProtocolError, LinkTimeout):
+            continue
+    pytest.fail(f"the link never got back in step after junk {junk!r}")
+
+
+@given(text=st.text(min_size=0, max_size=8))
+def test_reply_parser_takes_only_exact_success_forms(text: str) -> None:
+    """The parser's side of the same rule: only the exact bare '0' (GOTO) or '1' (setter) is success."""
+    for req, success in ((p.query("MS"), "0"), (p.request("Sd", "+10*00:00"), "1")):
+        try:
+            result = req.parse(text)
+        except (ProtocolError, MountReplyError):
+            continue
+        assert text == success and result is True, f"{text!r} read as success for {req.text}"
