@@ -405,31 +405,39 @@
     if (!on) state.mountSettingsAsked = state.mountSettingsLoaded = false;
   }
 
-  function renderClients(rows) {
-    const body = $("clients");
+  // Fill a table body with one row of text cells per item, or one muted row saying it is empty.
+  function fillTable(id, columns, rows, emptyText) {
+    const body = $(id);
     body.replaceChildren();
     if (!rows.length) {
       const tr = document.createElement("tr");
       const td = document.createElement("td");
-      td.colSpan = 5;
+      td.colSpan = columns;
       td.className = "muted";
-      td.textContent = "no client in the last 5 minutes";
+      td.textContent = emptyText;
       tr.append(td);
       body.append(tr);
       return;
     }
-    for (const c of rows) {
+    for (const row of rows) {
       const tr = document.createElement("tr");
-      const who = c.setup_page ? "setup page (" + c.address + ")" : c.address + (c.user_agent ? " \u2014 " + c.user_agent : "");
-      const cells = [who, c.setup_page ? "" : String(c.client_id), c.connected ? "yes" : "no", String(c.requests), fmtDuration(c.idle_s)];
-      for (const text of cells) {
+      for (const text of row.cells) {
         const td = document.createElement("td");
         td.textContent = text;
-        if (c.setup_page) td.className = "mine";
+        if (row.cls) td.className = row.cls;
         tr.append(td);
       }
       body.append(tr);
     }
+  }
+
+  function renderClients(clients) {
+    const rows = clients.map((c) => ({
+      cells: [c.setup_page ? "setup page (" + c.address + ")" : c.address + (c.user_agent ? " \u2014 " + c.user_agent : ""),
+        c.setup_page ? "" : String(c.client_id), c.connected ? "yes" : "no", String(c.requests), fmtDuration(c.idle_s)],
+      cls: c.setup_page ? "mine" : "",
+    }));
+    fillTable("clients", 5, rows, "no client in the last 5 minutes");
   }
 
   // A bridge's status() value for a cell: text as is, {time, command|message} as "time command".
@@ -446,30 +454,12 @@
     return clients.length ? clients.map((c) => (c && typeof c === "object" ? c.address || JSON.stringify(c) : String(c))).join(", ") : "none";
   }
 
-  function renderBridges(rows) {
-    const body = $("bridges");
-    body.replaceChildren();
-    if (!rows.length) {
-      const tr = document.createElement("tr");
-      const td = document.createElement("td");
-      td.colSpan = 6;
-      td.className = "muted";
-      td.textContent = "none running (Stellarium and shared ZWO port are set in the config file)";
-      tr.append(td);
-      body.append(tr);
-      return;
-    }
-    for (const b of rows) {
-      const tr = document.createElement("tr");
-      const cells = [b.name, b.enabled === false ? "no" : "yes", b.port === undefined || b.port === null ? "\u2013" : String(b.port),
-        programs(b.clients), brief(b.last_command), brief(b.last_error)];
-      for (const text of cells) {
-        const td = document.createElement("td");
-        td.textContent = text;
-        tr.append(td);
-      }
-      body.append(tr);
-    }
+  function renderBridges(bridges) {
+    const rows = bridges.map((b) => ({
+      cells: [b.name, b.enabled === false ? "no" : "yes", b.port === undefined || b.port === null ? "\u2013" : String(b.port),
+        programs(b.clients), brief(b.last_command), brief(b.last_error)],
+    }));
+    fillTable("bridges", 6, rows, "none running (Stellarium and shared ZWO port are set in the config file)");
   }
 
   let pollTimer = null;

@@ -171,6 +171,7 @@ def test_bridges_panel_shows_running_bridges(browser: WebDriver,
     bare = server_factory()
     open_page(browser, bare.port)
     WebDriverWait(browser, 10).until(lambda d: text(d, "bridges").startswith("none running"))
+    assert text(browser, "clients").startswith("setup page (127.0.0.1)")  # the page itself, as a client
 
     settings = make_settings(stellarium=StellariumSettings(enabled=True, host="127.0.0.1", port=0))
     server = server_factory(settings, config_name="bridges.toml")
