@@ -179,11 +179,12 @@ class AlpacaZwoServer:
         from .bridges.zwo_port import ZwoPortBridge
 
         port = config.port if self.overrides.zwo_port is None else self.overrides.zwo_port
-        bridge = ZwoPortBridge(self.telescopes[0], host=config.host, port=port)
+        host = self.overrides.host or config.host  # --host binds every listener to that address
+        bridge = ZwoPortBridge(self.telescopes[0], host=host, port=port)
         try:
             bridge.start()
         except OSError as exc:  # the port is taken: Alpaca still serves, the log says why INDI cannot connect
-            log.error("ZWO-protocol port %s:%d could not be opened: %s", config.host, port, exc)
+            log.error("ZWO-protocol port %s:%d could not be opened: %s", host, port, exc)
             return
         self.zwo_port = bridge
 
