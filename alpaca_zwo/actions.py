@@ -38,7 +38,7 @@ from ._exceptions import (
     ProtocolError,
 )
 from .config import Settings, settings_from_dict, settings_to_dict
-from .protocol import MeridianSettings, MountMode, parse_status
+from .protocol import MeridianSettings, MountMode, MountStatus, parse_status
 
 if TYPE_CHECKING:
     from .mount import MountSettings
@@ -228,13 +228,15 @@ def _write_altitude_limits(telescope: Telescope, changes: Reply) -> None:
 _requested_modes: weakref.WeakKeyDictionary[Telescope, MountMode] = weakref.WeakKeyDictionary()
 
 
-def _current_mode(telescope: Telescope) -> MountMode:
-    status = telescope.mount.state.status
-    return status.mode if status is not None else MountMode.UNKNOWN
+def _fresh_status(telescope: Telescope) -> tuple[str, MountStatus]:
+    """``:GU#`` read now, raw and decoded. Also a round trip: every command sent before it (even a
+    no-reply one such as ``:AA#``) has reached the mount by the time this returns."""
+    raw = telescope.mount.raw(":GU#")
+    return raw, parse_status(raw[:-1] if raw.endswith("#") else raw)
 
 
 def _read_mode(telescope: Telescope) -> Reply:
-    current = _current_mode(telescope)
+    current = _fresh_status(telescope)[1].mode
     requested = _requested_modes.get(telescope, current)
     if requested is current:
         _requested_modes.pop(telescope, None)  # in effect now (the mount was restarted) or never changed
@@ -254,8 +256,7 @@ def _write_mode(telescope: Telescope, changes: Reply) -> None:
 def _read_info(telescope: Telescope) -> Reply:
     mount = telescope.mount
     info = mount.state.info
-    raw = mount.raw(":GU#")  # fresh, exactly as the mount prints it
-    status = parse_status(raw[:-1] if raw.endswith("#") else raw)
+    raw, status = _fresh_status(telescope)  # exactly as the mount prints it
     link = mount.link.status
     return {
         "model": info.model if info else None,
