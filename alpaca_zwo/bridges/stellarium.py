@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import os
 import selectors
 import socket
 import struct
@@ -169,6 +170,7 @@ class StellariumBridge:
         self.max_clients = max_clients
         self._requested_port = port
         self._listener: socket.socket | None = None
+        self._bound_port = 0
         self._selector = selectors.DefaultSelector()
         self._wake_r, self._wake_w = socket.socketpair()
         self._clients: dict[int, _Client] = {}
@@ -190,13 +192,14 @@ class StellariumBridge:
     @property
     def port(self) -> int:
         """The bound port (differs from the requested one when that was 0)."""
-        return self._listener.getsockname()[1] if self._listener is not None else self._requested_port
+        return self._bound_port or self._requested_port
 
     def start(self) -> None:
         """Listen (IPv4: Stellarium only uses its host's first IPv4 address) and start both threads."""
         listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         try:
-            listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            if os.name != "nt":  # restarts rebind at once; on Windows the option would let a second server share it
+                listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             listener.bind((self.host, self._requested_port))
             listener.listen(64)
         except OSError as exc:
@@ -205,6 +208,7 @@ class StellariumBridge:
                                      f"{exc.strerror or exc}") from exc
         listener.setblocking(False)
         self._listener = listener
+        self._bound_port = listener.getsockname()[1]
         self._wake_r.setblocking(False)
         self._selector.register(listener, selectors.EVENT_READ, "accept")
         self._selector.register(self._wake_r, selectors.EVENT_READ, "wake")
@@ -260,12 +264,16 @@ class StellariumBridge:
     def _serve_loop(self) -> None:
         next_tick = time.monotonic()
         while not self._stopping.is_set():
-            timeout = max(0.0, next_tick - time.monotonic())
-            for key, events in self._selector.select(timeout):
-                self._dispatch(key, events)
-            if time.monotonic() >= next_tick:
-                next_tick = max(next_tick + self.period_s, time.monotonic())
-                self._broadcast_position()
+            try:
+                timeout = max(0.0, next_tick - time.monotonic())
+                for key, events in self._selector.select(timeout):
+                    self._dispatch(key, events)
+                if time.monotonic() >= next_tick:
+                    next_tick = max(next_tick + self.period_s, time.monotonic())
+                    self._broadcast_position()
+            except Exception:  # a bug must not silently end the server for every Stellarium
+                log.exception("Stellarium server: unexpected error; carrying on")
+                self._stopping.wait(self.period_s)
 
     def _dispatch(self, key: selectors.SelectorKey, events: int) -> None:
         if key.data == "accept":
