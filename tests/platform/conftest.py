@@ -17,11 +17,16 @@ def in_ci() -> bool:
     return os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
 
 
-@pytest.fixture
-def root_only() -> None:
-    """Use on every test that needs root: skipped with the reason for a developer, a failure in CI."""
+def require_root() -> None:
+    """Skip with the reason for a developer, fail in CI, unless this run is root."""
     if os.geteuid() == 0:
         return
     if in_ci():
         pytest.fail(f"CI must run every root-only test, but this run is not root: {NEEDS_ROOT}")
     pytest.skip(NEEDS_ROOT)
+
+
+@pytest.fixture
+def root_only() -> None:
+    """Use on every test that needs root (before any fixture that does root-only work)."""
+    require_root()

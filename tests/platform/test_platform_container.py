@@ -29,6 +29,7 @@ from pathlib import Path
 import pytest
 
 from tests.platform.chroot import poll_in_netns, private_netns
+from tests.platform.conftest import require_root
 from tests.platform.roots import CACHE, REPO_ROOT, cache_key, copy_root, host_ca_bundle, pristine_root, run
 
 BASE_PACKAGES = ("python3", "python3-pip", "python3-venv", "python-is-python3", "ca-certificates")
@@ -102,6 +103,7 @@ def ensure_base_image(scratch: Path) -> str:
 
 @pytest.fixture(scope="module")
 def image(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    require_root()
     if shutil.which("podman") is None:
         raise RuntimeError("podman not found: scripts/run-tests installs it as root")
     PODMAN_RUNROOT.mkdir(parents=True, exist_ok=True)
