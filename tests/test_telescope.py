@@ -26,7 +26,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import erfa
 import pytest
@@ -50,8 +50,7 @@ from alpaca_zwo.protocol import MeridianSettings, MountMode
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
 from tests.conftest import ServerFactory, make_settings
-
-T = TypeVar("T")
+from tests.support import AlpacaClient, wait_until
 
 SPEED = 10.0  # emulator clock rate: mount seconds per real second
 ARCSEC = 1.0 / 3600.0
@@ -74,18 +73,6 @@ UTC_DATE_RE = re.compile(r"^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,7})?Z$")
 # ================================================================================================
 # Helpers
 # ================================================================================================
-
-
-def wait_until(condition: Callable[[], T], timeout: float, what: str, interval: float = 0.01) -> T:
-    """Poll ``condition`` until it is truthy; fail naming ``what`` after ``timeout`` real seconds."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = condition()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout:.1f} s waiting for {what} (last value {value!r})")
-        time.sleep(interval)
 
 
 def wire(value: object) -> str:
@@ -135,22 +122,19 @@ class Reply:
         return self.body["Value"]
 
 
-class Api:
-    """One Alpaca client (its own ClientID) on one device, checking the reply envelope on every call.
+class Api(AlpacaClient):
+    """The shared Alpaca client, strict: every reply's envelope is checked against the member table.
 
     Members are named as ASCOM spells them (``RightAscension``); the path is derived, lower case.
     """
 
     def __init__(self, base_url: str, device: int = 0, client_id: int = 4242) -> None:
-        self.base_url = base_url
-        self.device = device
-        self.client_id = client_id
-        self.session = requests.Session()
+        super().__init__(base_url, client_id, device=device)
         self._ctid = itertools.count(1)
         self.exercised: set[tuple[str, str]] = set()
 
-    def url(self, member: str) -> str:
-        return f"{self.base_url}/api/v1/telescope/{self.device}/{member.lower()}"
+    def url(self, member: str, number: int | None = None) -> str:
+        return super().url(member.lower(), number)
 
     def request(self, verb: str, name: str, params: Mapping[str, object] | None = None,
                 timeout: float = 30.0) -> Reply:
@@ -158,10 +142,7 @@ class Api:
         ctid = next(self._ctid)
         fields = {"ClientID": str(self.client_id), "ClientTransactionID": str(ctid)}
         fields.update({key: wire(value) for key, value in (params or {}).items()})
-        if verb == "GET":
-            response = self.session.get(self.url(name), params=fields, timeout=timeout)
-        else:
-            response = self.session.put(self.url(name), data=fields, timeout=timeout)
+        response = self.send(verb, self.url(name), fields, timeout)
         self.exercised.add((verb, name))
         assert response.status_code == 200, f"{verb} {name} {params}: HTTP {response.status_code} {response.text}"
         assert response.headers["Content-Type"].startswith("application/json"), response.headers
@@ -861,12 +842,12 @@ def test_miscased_put_transaction_id_is_ignored_and_get_ids_are_case_insensitive
     "/api/v1/telescope/0", "/api/v1/telescope/00/rightascension",
 ])
 def test_bad_paths_answer_400(api: Api, path: str) -> None:
-    assert_400(api.session.get(api.base_url + path, timeout=10), path)
+    assert_400(api.session.get(api.base + path, timeout=10), path)
 
 
 def test_wrong_verb_is_rejected_with_a_client_error(api: Api) -> None:
     for verb, name in [("PUT", "rightascension"), ("GET", "abortslew"), ("GET", "slewtocoordinatesasync")]:
-        response = api.session.request(verb, f"{api.base_url}/api/v1/telescope/0/{name}", timeout=10)
+        response = api.session.request(verb, f"{api.base}/api/v1/telescope/0/{name}", timeout=10)
         assert response.status_code in (400, 405), f"{verb} {name}: {response.status_code}"
         assert response.headers["Content-Type"].startswith("text/plain")
     for verb in ("POST", "DELETE"):
