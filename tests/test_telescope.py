@@ -1631,7 +1631,7 @@ def test_driver_identity(fresh: Api) -> None:
     assert fresh.value("Name") == "ZWO AM5"
     assert fresh.value("DriverVersion") == __version__
     assert fresh.value("DriverInfo") and fresh.value("Description")
-    assert fresh.value("SupportedActions") == []
+    assert fresh.value("SupportedActions") == supported_actions()
 
 
 def test_equatorial_system_and_alignment_mode(api: Api) -> None:
