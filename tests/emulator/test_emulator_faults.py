@@ -12,6 +12,7 @@ import pytest
 from emuclient import MountClient, flags, initialize
 
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
+from tests.support import wait_until
 
 
 def _connection_is_dropped(client: MountClient, timeout: float = 3.0) -> bool:
@@ -41,16 +42,6 @@ def _connect_is_refused(port: int) -> bool:
         return False
     finally:
         sock.close()
-
-
-def _wait_until(condition: Callable[[], bool], timeout: float = 5.0) -> bool:
-    """Poll a real-time condition (an outage has to run out in real time) with a deadline."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.02)
-    return condition()
 
 
 def test_dropped_reply_is_swallowed_but_the_command_acts(emu: EmulatorServer, mount: MountClient) -> None:
@@ -122,7 +113,7 @@ def test_outage_refuses_new_connections_for_its_duration(
     emu.faults.outage(0.6)
     assert _connection_is_dropped(mount)
     assert _connect_is_refused(emu.port)
-    assert _wait_until(lambda: not emu.faults.refusing())
+    wait_until(lambda: not emu.faults.refusing(), 5.0, "the outage to run out", interval=0.02)
     assert connect().ask(":GVP#") == "AM5#"
     assert emu.stats()["refused"] >= 1
 
@@ -140,7 +131,7 @@ def test_reboot_returns_the_power_up_state_and_keeps_flash(
     emu.faults.reboot(0.5)
     assert _connection_is_dropped(mount)
     assert _connect_is_refused(emu.port)
-    assert _wait_until(lambda: not emu.faults.refusing())
+    wait_until(lambda: not emu.faults.refusing(), 5.0, "the outage to run out", interval=0.02)
     client = connect()
     assert client.ask(":GC#") == "01/01/00#"
     assert client.ask(":GL#") == "00:00:00#"
@@ -177,7 +168,7 @@ def test_faults_under_load_never_kill_the_server(emu: EmulatorServer, connect: C
             emu.faults.stall(20)
             emu.faults.close_connections()
         emu.faults.outage(0.1)
-        assert _wait_until(lambda: not emu.faults.refusing())
+        wait_until(lambda: not emu.faults.refusing(), 5.0, "the outage to run out", interval=0.02)
     finally:
         stop.set()
         for thread in threads:

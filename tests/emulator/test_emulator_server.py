@@ -12,6 +12,7 @@ from emuclient import MountClient, flags, initialize, target_at
 
 from alpaca_zwo import protocol
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
+from tests.support import wait_until
 
 
 @pytest.fixture
@@ -92,17 +93,8 @@ def test_stats_count_bytes_and_exchanges(emu: EmulatorServer, connect: Callable[
     assert line["replies"] == 2
     assert stats["total"]["bytes_in"] == 16
     client.close()
-    assert _eventually(lambda: emu.connection_count() == 0)
+    wait_until(lambda: emu.connection_count() == 0, 3.0, "the connections to close", interval=0.01)
     assert emu.stats()["total"]["bytes_in"] == 16  # totals survive the connection
-
-
-def _eventually(condition: Callable[[], bool], timeout: float = 3.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.01)
-    return condition()
 
 
 def test_stop_closes_connections_and_is_idempotent(model: MountModel) -> None:
@@ -141,7 +133,8 @@ def test_pty_serves_pyserial_clients(model: MountModel, tmp_path: Path) -> None:
         server.faults.close_connections()
         new = server.wait_pty()
         assert new is not None
-        assert _eventually(lambda: os.path.realpath(link) == server.pty_path)
+        wait_until(lambda: os.path.realpath(link) == server.pty_path, 3.0, "the link to follow the new pty",
+                   interval=0.01)
         with serial.Serial(str(link), 9600, timeout=2.0) as again:
             again.write(b":GLC#")
             assert again.read_until(b"#") == b"1#"  # same mount, state kept

@@ -17,8 +17,7 @@ import shutil
 import signal
 import socket
 import subprocess
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -26,6 +25,7 @@ import pytest
 
 from alpaca_zwo import sky
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
+from tests.support import wait_until
 
 pytestmark = pytest.mark.skipif(
     shutil.which("indiserver") is None or shutil.which("indi_lx200am5") is None,
@@ -84,15 +84,6 @@ class Indi:
                 self.proc.wait(5)
 
 
-def _until(condition: Callable[[], object], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return
-        time.sleep(0.25)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
 @pytest.fixture
 def mount_model() -> MountModel:
     return MountModel(ScaledClock(speed=SPEED))
@@ -111,11 +102,11 @@ def emulator(mount_model: MountModel) -> Iterator[EmulatorServer]:
 def indi(tmp_path: Path, emulator: EmulatorServer) -> Iterator[Indi]:
     driver = Indi(tmp_path)
     try:
-        _until(lambda: driver.get("CONNECTION.CONNECT"), 20, "the INDI driver to start")
+        wait_until(lambda: driver.get("CONNECTION.CONNECT"), 20, "the INDI driver to start")
         driver.set(f"DEVICE_ADDRESS.ADDRESS;PORT=127.0.0.1;{emulator.port}")
         driver.set("CONNECTION.CONNECT=On")
-        _until(lambda: driver.get("CONNECTION.CONNECT").get("CONNECTION.CONNECT") == "On", 20, "connection")
-        _until(lambda: "GUIDE_RATE.RATE" in driver.get("GUIDE_RATE.RATE"), 20, "the driver's start-up queries")
+        wait_until(lambda: driver.get("CONNECTION.CONNECT").get("CONNECTION.CONNECT") == "On", 20, "connection")
+        wait_until(lambda: "GUIDE_RATE.RATE" in driver.get("GUIDE_RATE.RATE"), 20, "the driver's start-up queries")
         yield driver
     finally:
         driver.stop()
@@ -147,7 +138,7 @@ def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer,
     now = datetime.now(timezone.utc)
     indi.set(f"TIME_UTC.UTC;OFFSET={now:%Y-%m-%dT%H:%M:%S};3")
     indi.set("GEOGRAPHIC_COORD.LAT;LONG;ELEV=48.1;11.5;500")
-    _until(
+    wait_until(
         lambda: model.snapshot()["initialized"] and model.latitude() == pytest.approx(48.1, abs=1e-3),
         20,
         "time and site to reach the mount",
@@ -160,8 +151,8 @@ def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer,
     target_ra = round(sky.ra_from_hour_angle(model.sidereal_time(), -2.0), 4)
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={target_ra};40")
-    _until(model.slewing, 10, "the slew to start")
-    _until(lambda: not model.slewing() and _coords(indi)[2] == "Ok", 60, "the slew to end in INDI")
+    wait_until(model.slewing, 10, "the slew to start")
+    wait_until(lambda: not model.slewing() and _coords(indi)[2] == "Ok", 60, "the slew to end in INDI")
     assert sky.angular_separation(*model.position(), *model.target()) < 1 / 3600
     ra, dec, _ = _coords(indi)
     assert sky.wrap_hours_12(ra - target_ra) == pytest.approx(0.0, abs=2 / 3600)
@@ -172,7 +163,7 @@ def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer,
     # 4. Sync to a nearby position: the mount's reported coordinates jump there.
     indi.set("ON_COORD_SET.SYNC=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={target_ra + 0.01};40.1")
-    _until(lambda: model.snapshot()["alignment_points"] == 1, 10, "the sync")
+    wait_until(lambda: model.snapshot()["alignment_points"] == 1, 10, "the sync")
     ra_now, dec_now = model.position()
     assert sky.angular_separation(ra_now, dec_now, *model.target()) < 1 / 3600
     assert sky.angular_separation(ra_now, dec_now, target_ra + 0.01, 40.1) < 10 / 3600  # INDI's :Sr rounding
@@ -180,20 +171,20 @@ def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer,
     # 5. Guide north (INDI 1.9.9 times :RG#/:Mn#/:Qn# itself): Dec goes up about 7.5".
     dec_before = model.position()[1]
     indi.set("TELESCOPE_TIMED_GUIDE_NS.TIMED_GUIDE_N;TIMED_GUIDE_S=1000;0")
-    _until(lambda: model.position()[1] > dec_before + 5 * SPEED / 3600, 10, "the guide pulse")
+    wait_until(lambda: model.position()[1] > dec_before + 5 * SPEED / 3600, 10, "the guide pulse")
 
     # 6. Abort a GOTO: the slew ends short of its target.
     indi.set("ON_COORD_SET.TRACK=On")
     far_ra = round(sky.ra_from_hour_angle(model.sidereal_time(), 3.0), 4)
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={far_ra};10")
-    _until(model.slewing, 10, "the second slew to start")
+    wait_until(model.slewing, 10, "the second slew to start")
     indi.set("TELESCOPE_ABORT_MOTION.ABORT=On")
-    _until(lambda: not model.slewing(), 10, "the abort")
+    wait_until(lambda: not model.slewing(), 10, "the abort")
     assert sky.angular_separation(*model.position(), *model.target()) > 5.0
 
     # 7. Home: INDI waits for H in :GU#; tracking ends off, at the pole, :Gm# N.
     indi.set("GO_HOME.GO=On")
-    _until(lambda: indi.get("GO_HOME._STATE").get("GO_HOME._STATE") == "Ok", 60, "home to finish in INDI")
+    wait_until(lambda: indi.get("GO_HOME._STATE").get("GO_HOME._STATE") == "Ok", 60, "home to finish in INDI")
     assert model.pier_letter() == "N"
     assert model.tracking_state() == (False, None)
     assert indi.get("TELESCOPE_TRACK_STATE.TRACK_OFF")["TELESCOPE_TRACK_STATE.TRACK_OFF"] == "On"
