@@ -19,6 +19,7 @@ from typing import Any
 
 __all__ = [
     "DEFAULT_PRESET",
+    "FEATURES_SINCE",
     "GH_REPLIES",
     "GPS_REPLIES",
     "GT_MAPPINGS",
@@ -27,7 +28,9 @@ __all__ = [
     "MODELS",
     "PRESETS",
     "FirmwareVariant",
+    "has_feature",
     "preset",
+    "version_tuple",
 ]
 
 MODELS = ("AM3", "AM5", "AM5N", "AM7")
@@ -36,6 +39,27 @@ GT_MAPPINGS = ("english", "chinese")
 GPS_REPLIES = ("digits", "empty")
 HP_REPLIES = (None, "1#")
 GH_REPLIES = ("empty", "zero", "homed")
+
+#: The firmware version from which a feature exists (field notes §5.6): the one table both the
+#: driver (what it may send) and the emulator (what it answers) read.
+FEATURES_SINCE: dict[str, tuple[int, ...]] = {
+    "gat_error_codes": (1, 1, 1),  # :GAT# says why tracking stopped (INDIGO)
+    "park": (1, 1, 9),  # mount park (INDI-v1.6)
+    "meridian_settings": (1, 2, 4),  # :GTa#/:STa (INDIGO)
+    "custom_park": (1, 3, 0),  # :Sp01# (INDI-v1.6)
+    "home_flag": (1, 8, 1),  # 'H' in :GU# at the end of a home slew (INDI-v1.6)
+}
+
+
+def version_tuple(text: str) -> tuple[int, ...]:
+    """``1.9.2`` -> (1, 9, 2); non-digits in a part are ignored, so ``1.2.4b`` compares as 1.2.4."""
+    return tuple(int("".join(ch for ch in part if ch.isdigit()) or 0) for part in text.split("."))
+
+
+def has_feature(version: str, feature: str) -> bool:
+    """Whether firmware ``version`` has ``feature`` (a key of :data:`FEATURES_SINCE`)."""
+    return version_tuple(version) >= FEATURES_SINCE[feature]
+
 
 #: The switches that are quirks (everything but the identity fields).
 _IDENTITY = ("name", "model", "version", "compile_time", "description")

@@ -11,6 +11,7 @@ from emuclient import MountClient, flags, slew, target_at, wait_slew
 
 from alpaca_zwo import protocol
 from alpaca_zwo.emulator import PRESETS, FirmwareVariant, ManualClock, MountModel, preset
+from alpaca_zwo.firmware import has_feature
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 
 
@@ -183,3 +184,8 @@ def test_a_preset_with_a_changed_switch_says_so() -> None:
 def test_the_am5n_preset_answers_as_that_mount(mount: MountClient, firmware: FirmwareVariant) -> None:
     assert mount.ask(":GVP#") == "AM5N#" and mount.ask(":GV#") == "1.6.3#"
     assert mount.ask(":GMZA#").startswith("180*00:00&")
+
+
+@pytest.mark.parametrize(("version", "has"), [("1.2.3", False), ("1.2.4", True), ("1.2.4b", True), ("1.10.0", True)])
+def test_feature_versions_compare_as_numbers(version: str, has: bool) -> None:
+    assert has_feature(version, "meridian_settings") is has
