@@ -89,6 +89,19 @@ def test_jnow_mode_sends_the_mount_coordinates(tmp_path: Path) -> None:
                 error = separation_arcsec(sent.ra_hours, sent.dec_degrees, ra, dec)
                 assert error <= 0.1, f"JNow {sent.ra_hours} {sent.dec_degrees} vs Alpaca {ra} {dec}: {error:.3f}\""
             assert rig.server.stellarium.status()["equinox"] == "JNow"
+            # A JNow goto is the mount's own target, unconverted; an Alpaca AbortSlew stops it.
+            lst = float(rig.alpaca.get("siderealtime"))
+            target = ((lst - 2.0) % 24.0, 30.0)
+            client.goto(*target)
+            wait_until(lambda: rig.alpaca.get("slewing"), 10.0, "the Stellarium goto to start")
+            aimed = float(rig.alpaca.get("targetrightascension")), float(rig.alpaca.get("targetdeclination"))
+            assert separation_arcsec(*aimed, *target) <= 0.1
+            rig.alpaca.put("abortslew")
+            wait_until(lambda: not rig.alpaca.get("slewing"), 10.0, "the abort to stop the slew")
+            stopped = rig.alpaca.radec_and_time()[:2]
+            assert separation_arcsec(*stopped, *target) > 600.0, "the slew was not cut short"
+            sent = client.latest_position()
+            assert separation_arcsec(sent.ra_hours, sent.dec_degrees, *stopped) <= 5.0
         finally:
             client.close()
 
