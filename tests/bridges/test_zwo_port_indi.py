@@ -208,7 +208,8 @@ def test_indi_goto_below_the_configured_horizon_is_refused(indi: Indi, alpaca: A
     assert sky.angular_separation(alpaca.RightAscension, alpaca.Declination, *before) < 0.1
 
 
-def test_indi_guiding_moves_the_mount_as_alpaca_reads_it(indi: Indi, alpaca: AlpacaTelescope) -> None:
+def test_indi_guiding_moves_the_mount_as_alpaca_reads_it(indi: Indi, alpaca: AlpacaTelescope,
+                                                         server: AlpacaZwoServer) -> None:
     alpaca.SlewToCoordinatesAsync(_east(alpaca, -2.0), 40.0)
     _slew_done(alpaca)
     rate_arcsec_s = alpaca.GuideRateDeclination * 3600.0  # INDI guides at the mount's guide rate
@@ -225,6 +226,14 @@ def test_indi_guiding_moves_the_mount_as_alpaca_reads_it(indi: Indi, alpaca: Alp
     indi.set("TELESCOPE_TIMED_GUIDE_WE.TIMED_GUIDE_W;TIMED_GUIDE_E=1000;0")
     until(lambda: sky.wrap_hours_12(ra_before - alpaca.RightAscension) * 3600 * 15 > 0.6 * expected, 10,
           "the west guide")
+    until(lambda: not alpaca.Slewing, 10, "the west guide to end")
+    # With INDI's pulse command (:Mgs1000#) the mount times the pulse itself: 1 s of mount time.
+    indi.set("Use Pulse Cmd.On=On")
+    dec_before = alpaca.Declination
+    indi.set("TELESCOPE_TIMED_GUIDE_NS.TIMED_GUIDE_N;TIMED_GUIDE_S=0;1000")
+    until(lambda: (dec_before - alpaca.Declination) * 3600 > 0.6 * rate_arcsec_s, 10, "the south pulse")
+    until(lambda: not alpaca.IsPulseGuiding, 10, "the pulse to end")
+    assert (dec_before - alpaca.Declination) * 3600 < 1.6 * rate_arcsec_s
 
 
 def test_indi_polling_adds_no_serial_traffic(indi_process: Indi, server: AlpacaZwoServer,
