@@ -42,6 +42,7 @@ from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.store import SettingsStore
 from tests.conftest import make_settings
 from tests.fuzz.spec_fixes import UINT32_MAX
+from tests.support import AlpacaClient, wait_until
 
 #: The fuzzing harness keeps the telescope connected under this ClientID; generated requests use others.
 KEEPER_CLIENT_ID = 3141592653
@@ -320,7 +321,7 @@ def fuzz_settings() -> Settings:
 SITE = (51.4769, -0.0005, 46.0)
 
 
-class Keeper:
+class Keeper(AlpacaClient):
     """The harness's own client: keeps the telescope connected and the run bounded and meaningful.
 
     Generated requests may park the mount, set a one-hour SlewSettleTime or leave an axis moving;
@@ -328,24 +329,13 @@ class Keeper:
     """
 
     def __init__(self, base_url: str) -> None:
-        self.url = f"{base_url}/api/v1/telescope/0/"
-        self.session = requests.Session()
+        super().__init__(base_url, KEEPER_CLIENT_ID, timeout=REQUEST_TIMEOUT_S, call_timeout=REQUEST_TIMEOUT_S)
         self.parks = 0
 
     def _put(self, member: str, **fields: object) -> dict[str, Any]:
-        data = {"ClientID": str(KEEPER_CLIENT_ID), **{k: str(v) for k, v in fields.items()}}
-        response = self.session.put(self.url + member, data=data, timeout=REQUEST_TIMEOUT_S)
+        response = self.http_put(member, {"ClientID": str(KEEPER_CLIENT_ID), **{k: str(v) for k, v in fields.items()}})
         response.raise_for_status()
         return dict(response.json())
-
-    def get(self, member: str, **params: object) -> Any:
-        query = {"ClientID": str(KEEPER_CLIENT_ID), **{k: str(v) for k, v in params.items()}}
-        response = self.session.get(self.url + member, params=query, timeout=REQUEST_TIMEOUT_S)
-        response.raise_for_status()
-        body = response.json()
-        if body["ErrorNumber"]:
-            raise AssertionError(f"GET {member}: 0x{body['ErrorNumber']:X} {body['ErrorMessage']}")
-        return body["Value"]
 
     def connect(self) -> None:
         reply = self._put("connected", Connected="true")
@@ -366,7 +356,7 @@ class Keeper:
 
     def check_state(self) -> dict[str, Any]:
         """Mid-run invariant: DeviceState answers, with every name, the right types and sane ranges."""
-        state = {item["Name"]: item["Value"] for item in self.get("devicestate")}
+        state = {item["Name"]: item["Value"] for item in self.value("devicestate")}
         assert STATE_NAMES <= state.keys() <= STATE_NAMES | {"TimeStamp"}, state
         for name in ("AtHome", "AtPark", "IsPulseGuiding", "Slewing", "Tracking"):
             assert isinstance(state[name], bool), (name, state[name])
@@ -375,29 +365,24 @@ class Keeper:
         assert 0.0 <= state["RightAscension"] < 24.0 and -90.0 <= state["Declination"] <= 90.0, state
         assert 0.0 <= state["SiderealTime"] < 24.0 and -90.0 <= state["Altitude"] <= 90.0, state
         assert 0.0 <= state["Azimuth"] <= 360.0 and state["SideOfPier"] in (-1, 0, 1), state
-        assert not (state["AtPark"] and state["Slewing"] and not self.get("slewing")), state
+        assert not (state["AtPark"] and state["Slewing"] and not self.value("slewing")), state
         return state
 
     def settle(self, timeout: float = 60.0) -> dict[str, Any]:
         """Stop everything and wait for a coherent, idle mount; return its DeviceState."""
         self.connect()
-        if self.get("atpark"):
+        if self.value("atpark"):
             self._put("unpark")
         self._put("slewsettletime", SlewSettleTime=0)
         reply = self._put("abortslew")
         assert reply["ErrorNumber"] == 0, reply
-        deadline = time.monotonic() + timeout
-        while self.get("slewing") or self.get("ispulseguiding"):
-            assert time.monotonic() < deadline, "the mount did not come to rest after AbortSlew"
-            time.sleep(0.05)
-        return {item["Name"]: item["Value"] for item in self.get("devicestate")}
+        wait_until(lambda: not (self.value("slewing") or self.value("ispulseguiding")), timeout,
+                   "the mount to come to rest after AbortSlew")
+        return {item["Name"]: item["Value"] for item in self.value("devicestate")}
 
 
 def _wait_idle(keeper: Keeper, timeout: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout
-    while keeper.get("slewing"):
-        assert time.monotonic() < deadline, "a motion did not end"
-        time.sleep(0.02)
+    wait_until(lambda: not keeper.value("slewing"), timeout, "a motion to end", interval=0.02)
 
 
 def check_consistent(keeper: Keeper, base_url: str, site: tuple[float, float, float]) -> dict[str, Any]:
@@ -411,24 +396,24 @@ def check_consistent(keeper: Keeper, base_url: str, site: tuple[float, float, fl
     state = keeper.check_state()
     assert state["Slewing"] is False and state["IsPulseGuiding"] is False and state["AtPark"] is False
     for name in ("AtHome", "AtPark", "Slewing", "Tracking"):
-        assert keeper.get(name.lower()) == state[name], name
-    assert keeper.get("connected") is True
+        assert keeper.value(name.lower()) == state[name], name
+    assert keeper.value("connected") is True
 
     for member, value in (("sitelatitude", site[0]), ("sitelongitude", site[1]), ("siteelevation", site[2])):
         reply = keeper._put(member, **{KEEPER_NAMES[member]: value})
-        assert reply["ErrorNumber"] == 0 and keeper.get(member) == value, (member, reply)
+        assert reply["ErrorNumber"] == 0 and keeper.value(member) == value, (member, reply)
     now = time.strftime("%Y-%m-%dT%H:%M:%S.0000000Z", time.gmtime())
     reply = keeper._put("utcdate", UTCDate=now)
     assert reply["ErrorNumber"] == 0, reply
     assert keeper._put("findhome")["ErrorNumber"] == 0
     _wait_idle(keeper)
-    assert keeper.get("athome") is True and keeper.get("declination") == 90.0
+    assert keeper.value("athome") is True and keeper.value("declination") == 90.0
     reply = keeper._put("tracking", Tracking="true")
     assert reply["ErrorNumber"] == 0, reply
-    ra, dec = (keeper.get("siderealtime") + 2.0) % 24.0, 40.0  # HA -2 h: well above the horizon
+    ra, dec = (keeper.value("siderealtime") + 2.0) % 24.0, 40.0  # HA -2 h: well above the horizon
     reply = keeper._put("slewtocoordinatesasync", RightAscension=ra, Declination=dec)
     assert reply["ErrorNumber"] == 0, reply
-    assert keeper.get("slewing") is True
+    assert keeper.value("slewing") is True
     _wait_idle(keeper)
     here = keeper.check_state()
     assert abs((here["RightAscension"] - ra + 12.0) % 24.0 - 12.0) < 5.0 / 3600.0, (here, ra)
