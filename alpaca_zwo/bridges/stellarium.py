@@ -464,6 +464,8 @@ class StellariumBridge:
     def _work_due(self) -> bool:
         if self._pending_goto is not None or self._stopping.is_set():
             return True
+        if self._held and BRIDGE_CLIENT not in self.telescope.connected_clients():
+            self._held = False  # let go of by the Telescope (e.g. reset): take it again if still wanted
         if self._want_hold == self._held:
             return False
         retry_at = (self._hold_failed_at or 0.0) + HOLD_RETRY_S
