@@ -44,9 +44,34 @@ MAX_JUNK_BYTES = 8192
 #: Token bucket: a driver sends a handful of commands a second, a burst of ~20 at connect.
 COMMAND_RATE = 200.0
 COMMAND_BURST = 400.0
+#: Bytes: a driver sends ~100 B/s; anything near this is garbage however it is dressed up.
+BYTE_RATE = 16384.0
+BYTE_BURST = 65536.0
 #: A program that does not read its replies for this long is dropped.
 SEND_TIMEOUT_S = 5.0
 POLL_S = 0.5
+
+
+@dataclass
+class _Bucket:
+    """A token bucket: ``rate`` per second sustained, ``burst`` at once."""
+
+    rate: float
+    burst: float
+    tokens: float = 0.0
+    refilled: float = field(default_factory=time.monotonic)
+
+    def __post_init__(self) -> None:
+        self.tokens = self.burst
+
+    def take(self, amount: float = 1.0) -> bool:
+        now = time.monotonic()
+        self.tokens = min(self.burst, self.tokens + (now - self.refilled) * self.rate)
+        self.refilled = now
+        if self.tokens < amount:
+            return False
+        self.tokens -= amount
+        return True
 
 
 @dataclass
@@ -60,19 +85,10 @@ class _Program:
     commands: int = 0
     refusals: int = 0
     last_command: str = ""
-    tokens: float = COMMAND_BURST
-    refilled: float = field(default_factory=time.monotonic)
+    command_budget: _Bucket = field(default_factory=lambda: _Bucket(COMMAND_RATE, COMMAND_BURST))
+    byte_budget: _Bucket = field(default_factory=lambda: _Bucket(BYTE_RATE, BYTE_BURST))
     junk: int = 0
     thread: threading.Thread | None = None
-
-    def take_token(self) -> bool:
-        now = time.monotonic()
-        self.tokens = min(COMMAND_BURST, self.tokens + (now - self.refilled) * COMMAND_RATE)
-        self.refilled = now
-        if self.tokens < 1.0:
-            return False
-        self.tokens -= 1.0
-        return True
 
 
 class _Drop(Exception):
@@ -252,6 +268,8 @@ class ZwoPortBridge:
                 continue
             if not data:
                 return  # the program closed its end
+            if not program.byte_budget.take(len(data)):
+                raise _Drop(f"flooding (more than {BYTE_RATE / 1024:.0f} KiB/s)")
             program.junk += len(data)
             for body in framer.feed(data):
                 self._command(program, body)
@@ -259,7 +277,7 @@ class ZwoPortBridge:
                 raise _Drop(f"{program.junk} bytes without a known command")
 
     def _command(self, program: _Program, body: str) -> None:
-        if not program.take_token():
+        if not program.command_budget.take():
             raise _Drop(f"flooding (more than {COMMAND_RATE:.0f} commands/s)")
         self.telescope.registry.touch(program.session.key, "ZWO protocol")
         try:

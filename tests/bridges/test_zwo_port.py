@@ -8,6 +8,7 @@ drop only the offender while an Alpaca client keeps polling.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import random
 import socket
@@ -389,6 +390,12 @@ def test_junk_floods_and_connection_storms_drop_only_the_offender(server: Alpaca
         flood = ZwoClient(port)
         flood.sock.sendall(b":GVP#" * 5000)
         assert flood.closed_by_server()
+        # Garbage dressed up with a real command every 4 KB: dropped for its byte rate.
+        dressed = ZwoClient(port)
+        with contextlib.suppress(OSError):
+            for _ in range(100):
+                dressed.sock.sendall(b"x" * 4000 + b":GVP#")
+        assert dressed.closed_by_server()
         # 100 connections opened and dropped: in parallel (beyond max_clients) and one after another.
         storm = [socket.create_connection(("127.0.0.1", port), timeout=5) for _ in range(50)]
         for sock in storm:
@@ -404,7 +411,7 @@ def test_junk_floods_and_connection_storms_drop_only_the_offender(server: Alpaca
         poller.join()
         good.close()
     status = server.zwo_port.status()
-    assert status["dropped"] >= 3
+    assert status["dropped"] >= 4
     assert errors == []
     assert len(latencies) > 100
     assert _p99(latencies) <= max(0.010, 2 * _p99(baseline) + 0.005), (_p99(latencies), _p99(baseline))
