@@ -133,7 +133,7 @@ TRAVERSALS = [
     "/setup/static/%c0%ae%c0%ae%c0%afpyproject.toml",
     "/setup/static/%c0%ae%c0%ae/%c0%ae%c0%ae/pyproject.toml",
     "/setup/static/%2e%2e%5c%2e%2e%5cpyproject.toml",
-    "/setup/static/%2e%2e%2f%2e%2e%2falpaca_zwo%2fsetup.py",
+    "/setup/static/%2e%2e%2f%2e%2e%2falpaca_zwo%2fconfig.py",
     "/setup/static/%252e%252e%252f%252e%252e%252fpyproject.toml",
     "/setup/static/~/.ssh/id_rsa",
     "/setup/static/%00../../pyproject.toml",
