@@ -196,7 +196,8 @@ class AlpacaZwoServer:
         from .bridges.stellarium import StellariumBridge
 
         port = config.port if self.overrides.stellarium_port is None else self.overrides.stellarium_port
-        bridge = StellariumBridge(self.telescopes[0], host=config.host, port=port, equinox=config.equinox)
+        host = self.overrides.host or config.host  # --host binds every listener to that address
+        bridge = StellariumBridge(self.telescopes[0], host=host, port=port, equinox=config.equinox)
         try:
             bridge.start()
         except OSError as exc:  # the port is taken: Alpaca still serves, the log says why Stellarium cannot connect
