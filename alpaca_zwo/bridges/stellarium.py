@@ -485,7 +485,8 @@ class StellariumBridge:
         self._hold_failed_at = None
 
     def _run_goto(self, goto: _Goto) -> None:
-        record: dict[str, Any] = {"time": _iso(goto.received), "client": goto.address, "command": "goto",
+        summary = f"goto {goto.ra_hours:.4f} h {goto.dec_deg:+.3f}° {self.equinox}"  # the setup page shows it
+        record: dict[str, Any] = {"time": _iso(goto.received), "client": goto.address, "command": summary,
                                   "equinox": self.equinox, "ra_hours": goto.ra_hours, "dec_degrees": goto.dec_deg}
         try:
             ra, dec = goto.ra_hours, goto.dec_deg
