@@ -7,7 +7,8 @@ Two set-ups, each started as a user starts it and measured from /proc (Linux, as
 * ``default``: ``alpaca-zwo`` with no --device, so the built-in emulator runs in the same process
   and its work (the simulated mount) is counted too;
 * ``mount``: ``alpaca-zwo --device socket://...`` against the emulator in a separate process paced
-  at 9600 baud, which is what the server alone costs with a real mount.
+  at 9600 baud, which is what the server alone costs with a real mount;
+* the same with the client connected but silent: the server's own polling of the mount.
 
 The client is N.I.N.A.'s 2 s poll of 21 properties plus its derived re-reads (the sequence in
 ``benchmarks.loads``), over one keep-alive connection, after ``Connected = true``. CPU is the
@@ -64,7 +65,8 @@ def _start(cmd: list[str], marker: str, log: Path) -> tuple[subprocess.Popen[str
 class NinaPoller:
     """One N.I.N.A.-like client: the 2 s poll over one keep-alive connection."""
 
-    def __init__(self, port: int) -> None:
+    def __init__(self, port: int, polling: bool = True) -> None:
+        self.polling = polling
         self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
         self.tx = 0
         self.requests = 0
@@ -84,6 +86,9 @@ class NinaPoller:
         self._call("PUT", "connected", f"Connected=True&ClientID=7&ClientTransactionID={self.tx + 1}")
 
     def run(self, seconds: float) -> None:
+        if not self.polling:  # connected, then silent: what the server costs on its own
+            time.sleep(seconds)
+            return
         next_poll = time.monotonic()
         end = next_poll + seconds
         while next_poll < end:
@@ -93,11 +98,12 @@ class NinaPoller:
             time.sleep(max(0.0, next_poll - time.monotonic()))
 
 
-def measure(name: str, server_cmd: list[str], seconds: float, warmup: float, workdir: Path) -> dict[str, float | str]:
+def measure(name: str, server_cmd: list[str], seconds: float, warmup: float, workdir: Path,
+            polling: bool = True) -> dict[str, float | str]:
     server, line = _start(server_cmd, "Alpaca API:", workdir / f"{name}-server.log")
     try:
         port = int(line.split("127.0.0.1:")[1].split("/")[0])
-        client = NinaPoller(port)
+        client = NinaPoller(port, polling)
         client.connect()
         client.run(warmup)
         cpu0, t0, requests0 = _cpu_seconds(server.pid), time.monotonic(), client.requests
@@ -129,6 +135,9 @@ def main(argv: list[str] | None = None) -> int:
             device = f"socket://{line.split()[1]}"
             results.append(measure("mount", [*server, "--device", device, "--config", str(work / "b.toml")],
                                    args.seconds, args.warmup, work))
+            results.append(measure("mount, client connected but silent",
+                                   [*server, "--device", device, "--config", str(work / "c.toml")],
+                                   args.seconds, args.warmup, work, polling=False))
         finally:
             emulator.terminate()
             emulator.wait(timeout=20)
