@@ -215,3 +215,34 @@ def test_busy_port_says_another_program_has_it(ports: dict) -> None:
         assert "is busy" in done.stderr and "ZWO app" in done.stderr and "ASIAIR" in done.stderr
     finally:
         holder.close()
+
+
+def _port_info(device: str, vid: int | None, pid: int | None, description: str = "n/a"):
+    from serial.tools.list_ports_common import ListPortInfo
+
+    info = ListPortInfo(device, skip_link_detection=True)
+    info.vid, info.pid, info.description = vid, pid, description
+    return info
+
+
+def test_usb_ids_pick_the_mount_and_other_devices_are_never_opened(ports: dict, monkeypatch) -> None:
+    """The USB-ID path, with pyserial's listing replaced (no USB hardware here) by what it reports
+    for a ZWO mount (03c3:4001, here the emulator's pty) and for an Arduino-like device (2341:0043,
+    here the silent pty): the mount is chosen and confirmed by asking it, the other is not touched."""
+    from serial.tools import list_ports
+
+    from alpaca_zwo import devices
+
+    silent = ports["silent"]
+    listed = [_port_info(ports["mount"], 0x03C3, 0x4001, "ZWO AM5"),
+              _port_info(silent.path, 0x2341, 0x0043, "Arduino Uno")]
+    monkeypatch.setattr(list_ports, "comports", lambda *a, **k: listed)
+    candidates = {c.device: c for c in devices.list_candidates()}
+    assert candidates[ports["mount"]].zwo_usb and candidates[ports["mount"]].model == "AM5"
+    assert "another USB device: Arduino Uno" in candidates[silent.path].what
+    assert candidates[silent.path].answer == "not asked"
+    assert devices.find_mount() == ports["mount"]
+    assert bytes(silent.received) == b"", "a port identified as another device was opened and written to"
+    table = devices.format_candidates(list(candidates.values()))
+    assert "USB 03c3:4001, ZWO mount on USB (ZWO AM5); answered :GVP# with 'AM5#'" in table
+    assert "USB 2341:0043, another USB device: Arduino Uno (not asked)" in table
