@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 from .. import protocol
 from .._exceptions import ProtocolError
+from ..firmware import has_feature
 from ..protocol import (
     MountMode,
     char_reply,
@@ -36,7 +37,8 @@ from ..protocol import (
     parse_time,
     parse_utc_offset,
 )
-from .model import DEC, RA, MountModel
+from .model import MountModel
+from .state import DEC, RA
 
 __all__ = ["Responder"]
 
@@ -55,11 +57,6 @@ def _two_digits(argument: str) -> int | None:
     if len(argument) == 2 and argument.isdigit():
         return int(argument)
     return None
-
-
-def _version(text: str) -> tuple[int, ...]:
-    """``1.9.2`` -> (1, 9, 2); non-digits in a part are ignored, so ``1.2.4b`` compares as 1.2.4."""
-    return tuple(int("".join(ch for ch in part if ch.isdigit()) or 0) for part in text.split("."))
 
 
 class Responder:
@@ -223,7 +220,7 @@ class Responder:
         nothing, as for any command they do not know (field notes §2.9)."""
 
         def gated(argument: str, well_formed: bool) -> str | None:
-            if _version(self.model.firmware.version) < (1, 2, 4):
+            if not has_feature(self.model.firmware.version, "meridian_settings"):
                 return None
             return handler(argument, well_formed)
 
