@@ -37,8 +37,7 @@ from ..protocol import (
     parse_time,
     parse_utc_offset,
 )
-from .model import MountModel
-from .state import DEC, RA
+from .model import DEC, RA, MountModel
 
 __all__ = ["Responder"]
 
