@@ -8,6 +8,12 @@ decide which ASCOM code applies; the HTTP layer only renders them.
 
 from __future__ import annotations
 
+# DriverError numbers (0x500..0xFFF), so scripts can tell the cases apart.
+ERR_LINK = 0x500  # the mount link is down or failed
+ERR_MOUNT_REFUSED = 0x501  # the mount answered eN# or a refusal byte
+ERR_MOUNT_PROTOCOL = 0x502  # the mount's reply was garbled
+ERR_TIMEOUT = 0x503  # the mount did not confirm or finish in time
+
 
 class AlpacaZwoError(Exception):
     """Root of every error this package raises deliberately."""

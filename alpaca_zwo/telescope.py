@@ -20,6 +20,9 @@ from datetime import datetime, timedelta, timezone
 
 from . import __version__, sky
 from ._exceptions import (
+    ERR_LINK,
+    ERR_MOUNT_PROTOCOL,
+    ERR_MOUNT_REFUSED,
     AlpacaError,
     DriverError,
     InvalidOperation,
@@ -34,7 +37,7 @@ from ._exceptions import (
 )
 from .clients import ClientKey, ClientRegistry, current_client
 from .config import DeviceSettings, Settings, horizon_altitude_at
-from .motion import ERR_LINK, ERR_MOUNT_PROTOCOL, ERR_MOUNT_REFUSED, Motion, MotionKind, MotionSupervisor
+from .motion import Motion, MotionKind, MotionSupervisor
 from .mount import Mount, MountState
 from .protocol import SLEW_SPEEDS, Direction, MeridianSettings, MountMode, TrackRate
 from .sky import SIDEREAL_DEG_S, PierSide

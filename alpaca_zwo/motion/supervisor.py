@@ -22,29 +22,24 @@ after it show the mount at rest (consecutive positions stable in the frame the m
 RA/Dec while tracking, HA/Dec when not) *and* the braking time predicted from its last speed has
 passed. Slewing stays true until then.
 
-Landing: the mount takes targets in whole seconds of RA and whole arcseconds, and a slew to a
-point fixed to the ground (Alt/Az, a custom park) chases a sky that turns during the slew. A sky
-target is reached exactly by a short guide pulse for the rounding residual after arrival. A ground
-target is aimed at a whole-second RA the point will have at a known instant t* just after arrival;
-the mount tracks until t*, and tracking is switched off at t* exactly (the line is held and the
-``:Td#`` written at t*), which freezes the pointing on the requested Alt/Az. If the mount arrives
-too late for t*, a short correcting GOTO aims at a new t*.
+Landing exactly where asked lives in ``landing.py``; rest detection in ``rest.py``; braking-aware
+limits in ``limits.py``.
 """
 
 from __future__ import annotations
 
-import itertools
 import logging
-import math
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from enum import Enum
 
-from . import sky
-from ._exceptions import (
+from .. import sky
+from .._exceptions import (
+    ERR_LINK,
+    ERR_MOUNT_PROTOCOL,
+    ERR_MOUNT_REFUSED,
+    ERR_TIMEOUT,
     AlpacaError,
     AmbiguousReply,
     DriverError,
@@ -55,123 +50,29 @@ from ._exceptions import (
     MountReplyError,
     ProtocolError,
 )
-from .clients import ClientKey, ClientRegistry
-from .config import Settings, horizon_altitude_at
-from .mount import PULSE_CHUNK_MS, Mount, MountState
-from .protocol import Direction
-from .sky import SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
+from ..clients import ClientKey, ClientRegistry
+from ..config import Settings
+from ..mount import PULSE_CHUNK_MS, Mount, MountState
+from ..protocol import Direction
+from .kinds import (
+    DECELERATION_DEG_S2,
+    MAX_MOTION_S,
+    STATUS_LAG_S,
+    TICK_S,
+    Landing,
+    ManualMove,
+    Motion,
+    MotionKind,
+    Phase,
+    Pulse,
+    _wrap12,
+)
+from .landing import LANDING_MARGIN_S, SLEW_S_FIXED, SLEW_S_PER_DEG, LandingMixin
+from .limits import LimitsMixin
+from .rest import Reading, RestMixin
 
 log = logging.getLogger(__name__)
 
-#: The mount's status flags can lag a command by ~0.5 s (field notes §5.1).
-STATUS_LAG_S = 1.0
-MAX_MOTION_S = 600.0
-#: Braking deceleration of the axes (deg/s²): the emulator's, and the AM5's observed order of size.
-DECELERATION_DEG_S2 = 3.0
-#: A GOTO takes about this long per degree plus a fixed part; aims ground targets at arrival.
-SLEW_S_PER_DEG = 1 / 5.0
-SLEW_S_FIXED = 3.0
-#: How far after the predicted arrival a ground target's freeze instant is placed (mount s).
-LANDING_MARGIN_S = 1.0
-#: Lead for a short correcting GOTO (mount s): it must arrive before its freeze instant.
-CORRECTION_LEAD_S = 2.5
-#: Real seconds the server needs to see an arrival (a fast poll and a supervisor tick), added to
-#: the leads above in mount time, so a fast emulator is aimed as well as a real mount.
-SEE_ARRIVAL_REAL_S = 0.6
-MAX_LANDING_ATTEMPTS = 3
-#: Residuals smaller than this (ms of guide pulse) are not worth a pulse.
-MIN_PULSE_MS = 5
-#: Rest: consecutive readings within these of each other in the frame the mount holds still.
-REST_RA_S = 1.5  # seconds of RA: the mount prints whole seconds
-REST_DEC_ARCSEC = 1.5
-REST_READINGS = 3
-#: Wall-clock period of the supervisor loop (real seconds).
-TICK_S = 0.1
-#: Reaction allowance for a limit stop on top of the braking distance, in supervisor ticks.
-LIMIT_TICKS = 2.0
-
-
-class MotionKind(Enum):
-    GOTO = "slew"
-    ALTAZ = "slew to alt/az"
-    PARK = "park"
-    HOME = "find home"
-    MOVE = "MoveAxis"
-    STOP = "stop"
-
-
-class Phase(Enum):
-    MOVING = "moving"  # the mount is carrying out the command
-    LANDING = "landing"  # fine correction: a residual pulse or waiting for the freeze instant
-    SETTLING = "settling"  # commanded motion over; waiting for the readings to show rest
-    SETTLE_TIME = "settle time"  # at rest; the client's SlewSettleTime is running
-
-
-@dataclass
-class Landing:
-    """How a slew ends exactly where asked (see the module docstring)."""
-
-    ground: bool  # a point fixed to the ground (HA/Dec) rather than to the sky (RA/Dec)
-    ra: float  # sky target (hours) when not ground
-    ha: float  # ground target (hours) when ground
-    dec: float
-    freeze: bool  # ground target and tracking must be off at the end
-    wire: tuple[float, float] = (0.0, 0.0)  # what the mount was sent (RA h, Dec deg)
-    t_star: float | None = None  # mount time at which the pointing matches (ground)
-    attempts: int = 0
-    pulse_end: float = 0.0  # mount time the residual pulses end (sky)
-
-
-@dataclass
-class Motion:
-    kind: MotionKind
-    generation: int
-    started: float  # mount time
-    phase: Phase = Phase.MOVING
-    saw_busy: bool = False
-    landing: Landing | None = None
-    rest_from: float = 0.0  # readings taken after this mount time count toward rest
-    brake_s: float = 0.0  # braking time predicted at the stop
-    at_rest: float | None = None
-    restore_tracking: bool | None = None  # set tracking to this at arrival (alt/az, park)
-    done: threading.Event = field(default_factory=threading.Event)
-    error: str = ""
-
-
-@dataclass
-class ManualMove:
-    rate: float  # sky deg/s: axis 0 + is east (RA up), axis 1 + is north
-    owner: ClientKey | None
-
-
-@dataclass
-class Pulse:
-    """A guide pulse sent in chunks of at most 3 s: ``remaining_ms`` not yet sent, and the mount time
-    by which the whole pulse should be over (a link failure may cost pulse time, nothing else may)."""
-
-    direction: Direction
-    remaining_ms: int
-    deadline: float
-    chunk_end: float
-
-
-@dataclass(frozen=True)
-class Reading:
-    t: float
-    ra: float
-    dec: float
-    tracking: bool
-
-
-def _wrap12(hours: float) -> float:
-    return (hours + 12.0) % 24.0 - 12.0
-
-
-# DriverError numbers, so scripts can tell the cases apart.
-ERR_LINK = 0x500
-ERR_MOUNT_REFUSED = 0x501
-ERR_MOUNT_PROTOCOL = 0x502
-ERR_TIMEOUT = 0x503
 
 
 def _mount_errors(what: str, exc: Exception) -> AlpacaError:
@@ -183,7 +84,7 @@ def _mount_errors(what: str, exc: Exception) -> AlpacaError:
     return DriverError(f"{what}: mount link problem: {exc}", ERR_LINK)
 
 
-class MotionSupervisor:
+class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
     """Starts, watches, lands and stops every motion of one mount (see the module docstring)."""
 
     def __init__(
@@ -376,18 +277,7 @@ class MotionSupervisor:
             self._send_goto(motion, ra, dec)
         return motion
 
-    def _see_arrival(self) -> float:
-        return SEE_ARRIVAL_REAL_S * self.mount.clock_rate
 
-    def _aim(self, landing: Landing, lead_s: float) -> float:
-        """Pick the whole-second RA the ground point will have ``lead_s`` or a little more from now,
-        and record the instant t* at which it has it."""
-        now = self.mount.monotonic()
-        lst_at = self._lst() + lead_s * SIDEREAL_HOURS_PER_S
-        ra_exact = (lst_at - landing.ha) % 24.0
-        ra_wire = math.ceil(ra_exact * 3600.0 - 1e-9) / 3600.0
-        landing.t_star = now + lead_s + (ra_wire - ra_exact) / SIDEREAL_HOURS_PER_S
-        return ra_wire % 24.0
 
     def _send_goto(self, motion: Motion, ra: float, dec: float) -> None:
         guard = self._guard(motion.generation)
@@ -472,11 +362,6 @@ class MotionSupervisor:
         if motion.error not in ("", "stopped", "replaced"):
             raise DriverError(f"the {motion.kind.value} failed: {motion.error}", ERR_LINK)
 
-    def _check_move_allowed(self, axis: int, rate: float) -> None:
-        """Refuse a manual move that would have to stop at once (already at a limit, heading on)."""
-        limit = self._limit_reached({axis: rate}, self.mount.state)
-        if limit:
-            raise InvalidOperation(f"MoveAxis refused: {limit}")
 
     # -- the supervisor thread -----------------------------------------------------------------
 
@@ -525,13 +410,6 @@ class MotionSupervisor:
         self._tick_watchdog()
         self._tick_limits(state)
 
-    def _record_reading(self, state: MountState) -> None:
-        if state.raw_ra is None or state.raw_dec is None or state.position_time is None:
-            return
-        if self._readings and self._readings[-1].t >= state.position_time:
-            return
-        tracking = bool(state.tracking and state.tracking.on)
-        self._readings.append(Reading(state.position_time, state.raw_ra, state.raw_dec, tracking))
 
     def _tick_pulses(self, now: float) -> None:
         """Send the next chunk of long pulses. If the link is down, retry until the pulse's own end:
@@ -600,106 +478,10 @@ class MotionSupervisor:
             return  # the flags may still show the state from before the command
         self._arrived(motion, now)
 
-    def _arrived(self, motion: Motion, now: float) -> None:
-        """The mount says the slew is over: start the landing, or settle."""
-        landing = motion.landing
-        if landing is not None and self.mount.running:
-            try:
-                if landing.ground:
-                    self._land_ground(motion, landing, now)
-                else:
-                    self._land_sky(motion, landing, now)
-                return
-            except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
-                log.warning("%s: fine landing skipped: %s", motion.kind.value, exc)
-        self._after_arrival(motion)
-        self._settle(motion, now)
 
-    def _land_sky(self, motion: Motion, landing: Landing, now: float) -> None:
-        """Pulse away the whole-second/arcsecond rounding of the target the mount was given."""
-        guide_deg_s = self.mount.state.guide_rate * SIDEREAL_DEG_S
-        d_ra_deg = _wrap12(landing.ra - landing.wire[0]) * 15.0
-        d_dec = landing.dec - landing.wire[1]
-        end = now
-        for delta, positive, negative in ((d_ra_deg, Direction.EAST, Direction.WEST),
-                                          (d_dec, Direction.NORTH, Direction.SOUTH)):
-            ms = round(abs(delta) / guide_deg_s * 1000.0)
-            if ms >= MIN_PULSE_MS:
-                direction = positive if delta > 0 else negative
-                end = max(end, self.mount.pulse_guide(direction, min(ms, PULSE_CHUNK_MS),
-                                                      guard=self._guard(motion.generation)))
-        landing.pulse_end = end
-        self._after_arrival(motion)
-        motion.phase = Phase.LANDING if end > now else Phase.SETTLING
-        motion.rest_from = end
 
-    def _land_ground(self, motion: Motion, landing: Landing, now: float) -> None:
-        """Wait for t*, or aim a short correcting GOTO at a new t* if the mount arrived too late."""
-        assert landing.t_star is not None
-        if landing.t_star - now > 0.05 * self.mount.clock_rate:
-            motion.phase = Phase.LANDING
-            motion.rest_from = now  # readings while it waits for t* show whether it is at rest
-            return
-        if landing.attempts >= MAX_LANDING_ATTEMPTS:
-            log.warning("%s: arrived too late for the landing instant %d times; landing as is",
-                        motion.kind.value, landing.attempts)
-            self._after_arrival(motion)
-            self._settle(motion, now)
-            return
-        ra = self._aim(landing, CORRECTION_LEAD_S + self._see_arrival())
-        log.debug("%s: arrived %.2f s late; correcting GOTO", motion.kind.value, now - landing.t_star)
-        motion.saw_busy = False
-        motion.started = self.mount.monotonic()
-        wire = self.mount.goto(ra, landing.dec, guard=self._guard(motion.generation))
-        landing.wire = wire
-        landing.attempts += 1
-        motion.phase = Phase.MOVING
 
-    def _tick_landing(self, motion: Motion, now: float) -> None:
-        landing = motion.landing
-        assert landing is not None
-        if not landing.ground:
-            if now >= landing.pulse_end:
-                self._settle(motion, now)
-            return
-        assert landing.t_star is not None
-        rate = self.mount.clock_rate
-        if (landing.t_star - now) / rate > 0.06:
-            if motion.at_rest is None and not landing.freeze and self._at_rest(motion, now):
-                motion.at_rest = now  # tracking steadily: the slew can end at t* itself
-            return
-        at_real = time.monotonic() + (landing.t_star - self.mount.monotonic()) / rate
-        if landing.freeze:
-            try:
-                self.mount.set_tracking(False, guard=self._guard(motion.generation), not_before=at_real)
-            except MotionCancelled:
-                return
-            except (LinkError, ProtocolError, MountReplyError) as exc:
-                log.error("%s: could not stop tracking at the landing instant: %s", motion.kind.value, exc)
-        else:
-            delay = at_real - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-        if motion.restore_tracking is True:
-            motion.restore_tracking = None  # already tracking: nothing to restore
-        self._after_arrival(motion, skip_tracking=landing.freeze)
-        if motion.at_rest is not None:
-            # Already at rest and tracking: the pointing passes the Alt/Az now, so the slew ends now.
-            motion.at_rest = self.mount.monotonic()
-            motion.phase = Phase.SETTLE_TIME
-            self._tick_motion(motion.at_rest, self.mount.state)
-            return
-        self._settle(motion, self.mount.monotonic())
 
-    def _after_arrival(self, motion: Motion, skip_tracking: bool = False) -> None:
-        wanted = motion.restore_tracking
-        if skip_tracking or wanted is None:
-            return
-        try:
-            self.mount.set_tracking(wanted)
-        except (LinkError, ProtocolError, MountReplyError) as exc:
-            log.error("after %s: could not set tracking: %s", motion.kind.value, exc)
-        motion.restore_tracking = None
 
     def _settle(self, motion: Motion, now: float) -> None:
         motion.phase = Phase.SETTLING
@@ -720,32 +502,7 @@ class MotionSupervisor:
 
     # -- rest ----------------------------------------------------------------------------------
 
-    def _at_rest(self, motion: Motion, now: float) -> bool:
-        """Readings after ``rest_from`` stable in the frame the mount holds still, and the
-        predicted braking time over. Asks for fresh readings while it waits."""
-        if now < motion.rest_from + motion.brake_s:
-            self.mount.refresh()
-            return False
-        recent = [r for r in self._readings if r.t > motion.rest_from]
-        if len(recent) < REST_READINGS:
-            self.mount.refresh()
-            return False
-        last = recent[-REST_READINGS:]
-        if all(_stable(a, b) for a, b in itertools.pairwise(last)):
-            return True
-        self.mount.refresh()
-        return False
 
-    def _speed_estimate(self) -> float:
-        """Fastest axis speed (deg/s) seen in the last two readings, or of the manual moves."""
-        speeds = [abs(m.rate) for m in self.moves.values()]
-        if len(self._readings) >= 2:
-            a, b = self._readings[-2], self._readings[-1]
-            dt = b.t - a.t
-            if dt > 0:
-                d_ra, d_dec = _displacement(a, b)
-                speeds.append(max(abs(d_ra), abs(d_dec)) / dt)
-        return max(speeds, default=0.0)
 
     # -- watchdog and limits -------------------------------------------------------------------
 
@@ -760,75 +517,5 @@ class MotionSupervisor:
             if seen is not None and now - seen > limit:
                 self.stop_axis(axis, f"client {move.owner} went silent for {now - seen:.0f} s during MoveAxis")
 
-    def _tick_limits(self, state: MountState) -> None:
-        """Stop a manual move before it reaches the horizon, minimum altitude or meridian limit:
-        where it would come to rest if stopped now (braking distance plus reaction time)."""
-        if not self.moves:
-            return
-        moves = {axis: move.rate for axis, move in self.moves.items()}
-        reason = self._limit_reached(moves, state)
-        if reason:
-            for axis in list(self.moves):
-                self.stop_axis(axis, f"manual move stopped before the limit: {reason}")
-
-    def _limit_reached(self, moves: dict[int, float], state: MountState) -> str:
-        position = self.mount.position()
-        if position is None or state.position_time is None:
-            return ""
-        settings = self._settings()
-        latitude = settings.site.latitude
-        now = self.mount.monotonic()
-        age = max(0.0, now - state.position_time)
-        react = age + LIMIT_TICKS * TICK_S * self.mount.clock_rate
-        ha0 = sky.hour_angle(self._lst(), position[0])
-        dec0 = position[1]
-        # Sky velocities: a move is relative to the sky, so HA changes by -rate (RA up) only.
-        v_ha_deg = -moves.get(0, 0.0)
-        v_dec = moves.get(1, 0.0)
-        flip_deg = _flip_limit(settings, state)
-        for fraction in (0.0, 0.25, 0.5, 0.75, 1.0):
-            ha_deg = ha0 * 15.0 + _travel(v_ha_deg, react) * fraction
-            dec = dec0 + _travel(v_dec, react) * fraction
-            ha, dec = _normalise(ha_deg / 15.0, dec)
-            altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, latitude)
-            floor = horizon_altitude_at(settings.limits, azimuth)
-            if altitude < floor:
-                return f"altitude {altitude:.2f}° under the {floor:.2f}° allowed at azimuth {azimuth:.1f}°"
-            if flip_deg is not None and state.pier == "W" and v_ha_deg > 0 and ha * 15.0 > flip_deg:
-                return f"hour angle {ha * 15.0:.2f}° past the meridian limit {flip_deg:.2f}°"
-        return ""
 
 
-def _travel(velocity: float, react: float) -> float:
-    """Signed distance covered if told to stop now: reaction time at speed, then braking."""
-    return velocity * react + math.copysign(velocity * velocity / (2.0 * DECELERATION_DEG_S2), velocity)
-
-
-def _normalise(ha: float, dec: float) -> tuple[float, float]:
-    """Bring a Dec carried past a pole back into -90..90 (through the pole the HA turns by 12 h)."""
-    if dec > 90.0:
-        return _wrap12(ha + 12.0), 180.0 - dec
-    if dec < -90.0:
-        return _wrap12(ha + 12.0), -180.0 - dec
-    return _wrap12(ha), dec
-
-
-def _flip_limit(settings: Settings, state: MountState) -> float | None:
-    """Degrees past the meridian the normal (W) side may go, or None when the mount has none set."""
-    limits = settings.limits
-    limit = float(limits.meridian_limit_deg)
-    return limit if limit < 0.0 or limits.meridian_track_past else 0.0
-
-
-def _displacement(a: Reading, b: Reading) -> tuple[float, float]:
-    """Movement between readings in degrees, in the frame the mount holds still when at rest."""
-    dt = b.t - a.t
-    d_ra_h = _wrap12(b.ra - a.ra)
-    if not b.tracking:
-        d_ra_h -= SIDEREAL_HOURS_PER_S * dt  # an idle mount keeps its hour angle: RA grows with LST
-    return d_ra_h * 15.0, b.dec - a.dec
-
-
-def _stable(a: Reading, b: Reading) -> bool:
-    d_ra_deg, d_dec = _displacement(a, b)
-    return abs(d_ra_deg) <= REST_RA_S * 15.0 / 3600.0 and abs(d_dec) <= REST_DEC_ARCSEC / 3600.0

@@ -1,0 +1,90 @@
+"""What a motion is: its kind, its phase, and the records the supervisor keeps about it."""
+
+from __future__ import annotations
+
+import logging
+import threading
+from dataclasses import dataclass, field
+from enum import Enum
+
+from ..clients import ClientKey
+from ..protocol import Direction
+
+log = logging.getLogger(__name__)
+
+
+#: The mount's status flags can lag a command by ~0.5 s (field notes §5.1).
+STATUS_LAG_S = 1.0
+MAX_MOTION_S = 600.0
+#: Braking deceleration of the axes (deg/s²): the emulator's, and the AM5's observed order of size.
+DECELERATION_DEG_S2 = 3.0
+#: Wall-clock period of the supervisor loop (real seconds).
+TICK_S = 0.1
+
+
+class MotionKind(Enum):
+    GOTO = "slew"
+    ALTAZ = "slew to alt/az"
+    PARK = "park"
+    HOME = "find home"
+    MOVE = "MoveAxis"
+    STOP = "stop"
+
+
+class Phase(Enum):
+    MOVING = "moving"  # the mount is carrying out the command
+    LANDING = "landing"  # fine correction: a residual pulse or waiting for the freeze instant
+    SETTLING = "settling"  # commanded motion over; waiting for the readings to show rest
+    SETTLE_TIME = "settle time"  # at rest; the client's SlewSettleTime is running
+
+
+@dataclass
+class Landing:
+    """How a slew ends exactly where asked (see the module docstring)."""
+
+    ground: bool  # a point fixed to the ground (HA/Dec) rather than to the sky (RA/Dec)
+    ra: float  # sky target (hours) when not ground
+    ha: float  # ground target (hours) when ground
+    dec: float
+    freeze: bool  # ground target and tracking must be off at the end
+    wire: tuple[float, float] = (0.0, 0.0)  # what the mount was sent (RA h, Dec deg)
+    t_star: float | None = None  # mount time at which the pointing matches (ground)
+    attempts: int = 0
+    pulse_end: float = 0.0  # mount time the residual pulses end (sky)
+
+
+@dataclass
+class Motion:
+    kind: MotionKind
+    generation: int
+    started: float  # mount time
+    phase: Phase = Phase.MOVING
+    saw_busy: bool = False
+    landing: Landing | None = None
+    rest_from: float = 0.0  # readings taken after this mount time count toward rest
+    brake_s: float = 0.0  # braking time predicted at the stop
+    at_rest: float | None = None
+    restore_tracking: bool | None = None  # set tracking to this at arrival (alt/az, park)
+    done: threading.Event = field(default_factory=threading.Event)
+    error: str = ""
+
+
+@dataclass
+class ManualMove:
+    rate: float  # sky deg/s: axis 0 + is east (RA up), axis 1 + is north
+    owner: ClientKey | None
+
+
+@dataclass
+class Pulse:
+    """A guide pulse sent in chunks of at most 3 s: ``remaining_ms`` not yet sent, and the mount time
+    by which the whole pulse should be over (a link failure may cost pulse time, nothing else may)."""
+
+    direction: Direction
+    remaining_ms: int
+    deadline: float
+    chunk_end: float
+
+
+def _wrap12(hours: float) -> float:
+    return (hours + 12.0) % 24.0 - 12.0

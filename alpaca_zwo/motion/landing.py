@@ -1,0 +1,186 @@
+"""Landing exactly where asked.
+
+The mount takes targets in whole seconds of RA and whole arcseconds, and a slew to a point fixed
+to the ground (Alt/Az, a custom park) chases a sky that turns during the slew. A sky target is
+reached exactly by a short guide pulse for the rounding residual after arrival. A ground target is
+aimed at a whole-second RA the point will have at a known instant t* just after arrival; the mount
+tracks until t*, and tracking is switched off at t* exactly (the line is held and the ``:Td#``
+written at t*), which freezes the pointing on the requested Alt/Az. With tracking wanted on, the
+slew simply ends at t*. If the mount arrives too late for t*, a short correcting GOTO aims at a
+new t*.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from .._exceptions import (
+    LinkError,
+    MotionCancelled,
+    MountReplyError,
+    ProtocolError,
+)
+from ..mount import PULSE_CHUNK_MS, Mount, MountState
+from ..protocol import Direction
+from ..sky import SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
+from .kinds import Landing, Motion, Phase, _wrap12
+
+log = logging.getLogger(__name__)
+
+
+#: A GOTO takes about this long per degree plus a fixed part; aims ground targets at arrival.
+SLEW_S_PER_DEG = 1 / 5.0
+SLEW_S_FIXED = 3.0
+#: How far after the predicted arrival a ground target's freeze instant is placed (mount s).
+LANDING_MARGIN_S = 1.0
+#: Lead for a short correcting GOTO (mount s): it must arrive before its freeze instant.
+CORRECTION_LEAD_S = 2.5
+#: Real seconds the server needs to see an arrival (a fast poll and a supervisor tick), added to
+#: the leads above in mount time, so a fast emulator is aimed as well as a real mount.
+SEE_ARRIVAL_REAL_S = 0.6
+MAX_LANDING_ATTEMPTS = 3
+#: Residuals smaller than this (ms of guide pulse) are not worth a pulse.
+MIN_PULSE_MS = 5
+
+
+class LandingMixin:
+    """The arrival and landing phases of MotionSupervisor."""
+
+    mount: Mount
+    _lst: Callable[[], float]
+
+    if TYPE_CHECKING:  # provided by MotionSupervisor
+        def _guard(self, generation: int) -> Callable[[], bool]: ...
+        def _settle(self, motion: Motion, now: float) -> None: ...
+        def _at_rest(self, motion: Motion, now: float) -> bool: ...
+        def _tick_motion(self, now: float, state: MountState) -> None: ...
+
+
+
+
+
+    def _see_arrival(self) -> float:
+        return SEE_ARRIVAL_REAL_S * self.mount.clock_rate
+
+    def _aim(self, landing: Landing, lead_s: float) -> float:
+        """Pick the whole-second RA the ground point will have ``lead_s`` or a little more from now,
+        and record the instant t* at which it has it."""
+        now = self.mount.monotonic()
+        lst_at = self._lst() + lead_s * SIDEREAL_HOURS_PER_S
+        ra_exact = (lst_at - landing.ha) % 24.0
+        ra_wire = math.ceil(ra_exact * 3600.0 - 1e-9) / 3600.0
+        landing.t_star = now + lead_s + (ra_wire - ra_exact) / SIDEREAL_HOURS_PER_S
+        return ra_wire % 24.0
+
+    def _arrived(self, motion: Motion, now: float) -> None:
+        """The mount says the slew is over: start the landing, or settle."""
+        landing = motion.landing
+        if landing is not None and self.mount.running:
+            try:
+                if landing.ground:
+                    self._land_ground(motion, landing, now)
+                else:
+                    self._land_sky(motion, landing, now)
+                return
+            except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
+                log.warning("%s: fine landing skipped: %s", motion.kind.value, exc)
+        self._after_arrival(motion)
+        self._settle(motion, now)
+
+    def _land_sky(self, motion: Motion, landing: Landing, now: float) -> None:
+        """Pulse away the whole-second/arcsecond rounding of the target the mount was given."""
+        guide_deg_s = self.mount.state.guide_rate * SIDEREAL_DEG_S
+        d_ra_deg = _wrap12(landing.ra - landing.wire[0]) * 15.0
+        d_dec = landing.dec - landing.wire[1]
+        end = now
+        for delta, positive, negative in ((d_ra_deg, Direction.EAST, Direction.WEST),
+                                          (d_dec, Direction.NORTH, Direction.SOUTH)):
+            ms = round(abs(delta) / guide_deg_s * 1000.0)
+            if ms >= MIN_PULSE_MS:
+                direction = positive if delta > 0 else negative
+                end = max(end, self.mount.pulse_guide(direction, min(ms, PULSE_CHUNK_MS),
+                                                      guard=self._guard(motion.generation)))
+        landing.pulse_end = end
+        self._after_arrival(motion)
+        motion.phase = Phase.LANDING if end > now else Phase.SETTLING
+        motion.rest_from = end
+
+    def _land_ground(self, motion: Motion, landing: Landing, now: float) -> None:
+        """Wait for t*, or aim a short correcting GOTO at a new t* if the mount arrived too late."""
+        assert landing.t_star is not None
+        if landing.t_star - now > 0.05 * self.mount.clock_rate:
+            motion.phase = Phase.LANDING
+            motion.rest_from = now  # readings while it waits for t* show whether it is at rest
+            return
+        if landing.attempts >= MAX_LANDING_ATTEMPTS:
+            log.warning("%s: arrived too late for the landing instant %d times; landing as is",
+                        motion.kind.value, landing.attempts)
+            self._after_arrival(motion)
+            self._settle(motion, now)
+            return
+        ra = self._aim(landing, CORRECTION_LEAD_S + self._see_arrival())
+        log.debug("%s: arrived %.2f s late; correcting GOTO", motion.kind.value, now - landing.t_star)
+        motion.saw_busy = False
+        motion.started = self.mount.monotonic()
+        wire = self.mount.goto(ra, landing.dec, guard=self._guard(motion.generation))
+        landing.wire = wire
+        landing.attempts += 1
+        motion.phase = Phase.MOVING
+
+    def _tick_landing(self, motion: Motion, now: float) -> None:
+        landing = motion.landing
+        assert landing is not None
+        if not landing.ground:
+            if now >= landing.pulse_end:
+                self._settle(motion, now)
+            return
+        assert landing.t_star is not None
+        rate = self.mount.clock_rate
+        if (landing.t_star - now) / rate > 0.06:
+            if motion.at_rest is None and not landing.freeze and self._at_rest(motion, now):
+                motion.at_rest = now  # tracking steadily: the slew can end at t* itself
+            return
+        if not self._at_landing_instant(motion, landing):
+            return
+        if motion.restore_tracking is True:
+            motion.restore_tracking = None  # already tracking: nothing to restore
+        self._after_arrival(motion, skip_tracking=landing.freeze)
+        if motion.at_rest is not None:
+            # Already at rest and tracking: the pointing passes the Alt/Az now, so the slew ends now.
+            motion.at_rest = self.mount.monotonic()
+            motion.phase = Phase.SETTLE_TIME
+            self._tick_motion(motion.at_rest, self.mount.state)
+            return
+        self._settle(motion, self.mount.monotonic())
+
+    def _at_landing_instant(self, motion: Motion, landing: Landing) -> bool:
+        """At t* exactly: freeze the pointing (:Td# written at t*) or just let the moment come.
+        False if a stop withdrew the freeze."""
+        assert landing.t_star is not None
+        at_real = time.monotonic() + (landing.t_star - self.mount.monotonic()) / self.mount.clock_rate
+        if landing.freeze:
+            try:
+                self.mount.set_tracking(False, guard=self._guard(motion.generation), not_before=at_real)
+            except MotionCancelled:
+                return False
+            except (LinkError, ProtocolError, MountReplyError) as exc:
+                log.error("%s: could not stop tracking at the landing instant: %s", motion.kind.value, exc)
+        else:
+            delay = at_real - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        return True
+
+    def _after_arrival(self, motion: Motion, skip_tracking: bool = False) -> None:
+        wanted = motion.restore_tracking
+        if skip_tracking or wanted is None:
+            return
+        try:
+            self.mount.set_tracking(wanted)
+        except (LinkError, ProtocolError, MountReplyError) as exc:
+            log.error("after %s: could not set tracking: %s", motion.kind.value, exc)
+        motion.restore_tracking = None

@@ -1,0 +1,107 @@
+"""Braking-aware limits: a manual move stops where it would come to rest, not where it is.
+
+The supervisor stops a MoveAxis when the point it would reach if told to stop now (its speed for
+the reaction time, then the braking distance at the mount's deceleration) lies below the horizon
+profile or the minimum altitude, or past the meridian limit on the normal side of the pier.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from .. import sky
+from .._exceptions import (
+    InvalidOperation,
+)
+from ..config import Settings, horizon_altitude_at
+from ..mount import Mount, MountState
+from .kinds import DECELERATION_DEG_S2, TICK_S, _wrap12
+
+log = logging.getLogger(__name__)
+
+if TYPE_CHECKING:
+    from .kinds import ManualMove
+
+#: Reaction allowance for a limit stop on top of the braking distance, in supervisor ticks.
+LIMIT_TICKS = 2.0
+
+
+def _travel(velocity: float, react: float) -> float:
+    """Signed distance covered if told to stop now: reaction time at speed, then braking."""
+    return velocity * react + math.copysign(velocity * velocity / (2.0 * DECELERATION_DEG_S2), velocity)
+
+
+def _normalise(ha: float, dec: float) -> tuple[float, float]:
+    """Bring a Dec carried past a pole back into -90..90 (through the pole the HA turns by 12 h)."""
+    if dec > 90.0:
+        return _wrap12(ha + 12.0), 180.0 - dec
+    if dec < -90.0:
+        return _wrap12(ha + 12.0), -180.0 - dec
+    return _wrap12(ha), dec
+
+
+def _flip_limit(settings: Settings, state: MountState) -> float | None:
+    """Degrees past the meridian the normal (W) side may go, or None when the mount has none set."""
+    limits = settings.limits
+    limit = float(limits.meridian_limit_deg)
+    return limit if limit < 0.0 or limits.meridian_track_past else 0.0
+
+
+class LimitsMixin:
+    """The limit checks of MotionSupervisor."""
+
+    mount: Mount
+    moves: dict[int, ManualMove]
+    _settings: Callable[[], Settings]
+    _lst: Callable[[], float]
+
+    if TYPE_CHECKING:  # provided by MotionSupervisor
+        def stop_axis(self, axis: int, why: str) -> None: ...
+
+
+    def _check_move_allowed(self, axis: int, rate: float) -> None:
+        """Refuse a manual move that would have to stop at once (already at a limit, heading on)."""
+        limit = self._limit_reached({axis: rate}, self.mount.state)
+        if limit:
+            raise InvalidOperation(f"MoveAxis refused: {limit}")
+
+    def _tick_limits(self, state: MountState) -> None:
+        """Stop a manual move before it reaches the horizon, minimum altitude or meridian limit:
+        where it would come to rest if stopped now (braking distance plus reaction time)."""
+        if not self.moves:
+            return
+        moves = {axis: move.rate for axis, move in self.moves.items()}
+        reason = self._limit_reached(moves, state)
+        if reason:
+            for axis in list(self.moves):
+                self.stop_axis(axis, f"manual move stopped before the limit: {reason}")
+
+    def _limit_reached(self, moves: dict[int, float], state: MountState) -> str:
+        position = self.mount.position()
+        if position is None or state.position_time is None:
+            return ""
+        settings = self._settings()
+        latitude = settings.site.latitude
+        now = self.mount.monotonic()
+        age = max(0.0, now - state.position_time)
+        react = age + LIMIT_TICKS * TICK_S * self.mount.clock_rate
+        ha0 = sky.hour_angle(self._lst(), position[0])
+        dec0 = position[1]
+        # Sky velocities: a move is relative to the sky, so HA changes by -rate (RA up) only.
+        v_ha_deg = -moves.get(0, 0.0)
+        v_dec = moves.get(1, 0.0)
+        flip_deg = _flip_limit(settings, state)
+        for fraction in (0.0, 0.25, 0.5, 0.75, 1.0):
+            ha_deg = ha0 * 15.0 + _travel(v_ha_deg, react) * fraction
+            dec = dec0 + _travel(v_dec, react) * fraction
+            ha, dec = _normalise(ha_deg / 15.0, dec)
+            altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, latitude)
+            floor = horizon_altitude_at(settings.limits, azimuth)
+            if altitude < floor:
+                return f"altitude {altitude:.2f}° under the {floor:.2f}° allowed at azimuth {azimuth:.1f}°"
+            if flip_deg is not None and state.pier == "W" and v_ha_deg > 0 and ha * 15.0 > flip_deg:
+                return f"hour angle {ha * 15.0:.2f}° past the meridian limit {flip_deg:.2f}°"
+        return ""

@@ -1,0 +1,93 @@
+"""At rest, judged from readings: the mount's flags drop before its axes stop braking.
+
+A reading is the mount's own coarse position (whole seconds of RA, whole arcseconds). The mount is
+at rest when consecutive readings agree in the frame it holds still (RA/Dec while tracking, HA/Dec
+when not) to within that resolution, and the braking time predicted from its last speed is over.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from collections import deque
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from ..mount import Mount, MountState
+from ..sky import SIDEREAL_HOURS_PER_S
+from .kinds import _wrap12
+
+log = logging.getLogger(__name__)
+
+if TYPE_CHECKING:
+    from .kinds import ManualMove, Motion
+
+#: Rest: consecutive readings within these of each other in the frame the mount holds still.
+REST_RA_S = 1.5  # seconds of RA: the mount prints whole seconds
+REST_DEC_ARCSEC = 1.5
+REST_READINGS = 3
+
+
+@dataclass(frozen=True)
+class Reading:
+    t: float
+    ra: float
+    dec: float
+    tracking: bool
+
+
+def _displacement(a: Reading, b: Reading) -> tuple[float, float]:
+    """Movement between readings in degrees, in the frame the mount holds still when at rest."""
+    dt = b.t - a.t
+    d_ra_h = _wrap12(b.ra - a.ra)
+    if not b.tracking:
+        d_ra_h -= SIDEREAL_HOURS_PER_S * dt  # an idle mount keeps its hour angle: RA grows with LST
+    return d_ra_h * 15.0, b.dec - a.dec
+
+
+def _stable(a: Reading, b: Reading) -> bool:
+    d_ra_deg, d_dec = _displacement(a, b)
+    return abs(d_ra_deg) <= REST_RA_S * 15.0 / 3600.0 and abs(d_dec) <= REST_DEC_ARCSEC / 3600.0
+
+
+class RestMixin:
+    """Keeps the recent readings and decides rest (mixed into MotionSupervisor)."""
+
+    mount: Mount
+    moves: dict[int, ManualMove]
+    _readings: deque[Reading]
+
+    def _record_reading(self, state: MountState) -> None:
+        if state.raw_ra is None or state.raw_dec is None or state.position_time is None:
+            return
+        if self._readings and self._readings[-1].t >= state.position_time:
+            return
+        tracking = bool(state.tracking and state.tracking.on)
+        self._readings.append(Reading(state.position_time, state.raw_ra, state.raw_dec, tracking))
+
+    def _at_rest(self, motion: Motion, now: float) -> bool:
+        """Readings after ``rest_from`` stable in the frame the mount holds still, and the
+        predicted braking time over. Asks for fresh readings while it waits."""
+        if now < motion.rest_from + motion.brake_s:
+            self.mount.refresh()
+            return False
+        recent = [r for r in self._readings if r.t > motion.rest_from]
+        if len(recent) < REST_READINGS:
+            self.mount.refresh()
+            return False
+        last = recent[-REST_READINGS:]
+        if all(_stable(a, b) for a, b in itertools.pairwise(last)):
+            return True
+        self.mount.refresh()
+        return False
+
+    def _speed_estimate(self) -> float:
+        """Fastest axis speed (deg/s) seen in the last two readings, or of the manual moves."""
+        speeds = [abs(m.rate) for m in self.moves.values()]
+        if len(self._readings) >= 2:
+            a, b = self._readings[-2], self._readings[-1]
+            dt = b.t - a.t
+            if dt > 0:
+                d_ra, d_dec = _displacement(a, b)
+                speeds.append(max(abs(d_ra), abs(d_dec)) / dt)
+        return max(speeds, default=0.0)
