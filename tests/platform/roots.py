@@ -21,7 +21,6 @@ from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 CACHE = Path(os.environ.get("ALPACA_ZWO_TEST_CACHE", "/var/cache/alpaca-zwo-tests"))
-FALLBACK_MIRROR = "http://deb.debian.org/debian"
 PYTHON_VERSIONS = {"bookworm": "3.11", "trixie": "3.13"}
 DEBOOTSTRAP_TIMEOUT_S = 1200
 _LAYOUT_VERSION = "1"  # bump when what a root contains changes in a way the key does not show
@@ -40,7 +39,8 @@ def apt_mirror() -> str:
             for uri in line.split():
                 if uri.rstrip("/").endswith("/debian"):
                     return uri.rstrip("/")
-    return FALLBACK_MIRROR
+    raise AssertionError("no Debian archive (a URI ending in /debian) in /etc/apt/sources.list*: "
+                         "debootstrap needs this machine's mirror")
 
 
 def cache_key(*parts: str) -> str:
