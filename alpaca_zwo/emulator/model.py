@@ -20,6 +20,10 @@ moves exactly rate x 1 s however the steps fall. GOTOs use a sampled braking-cur
 that chases the target's moving hour angle and snaps onto it once within a fraction of an
 arcsecond.
 
+The class is assembled from parts, one module each, sharing the state ``state.ModelBase``
+declares: ``physics.Mechanics`` (axis integration), ``clocksite.ClockAndSite`` (the mount's clock
+and site) and ``flash.FlashSettings`` (settings kept in flash); this module has the commands.
+
 Not modelled (documented in the report): alt-az physics (``:AA#`` only changes the reported
 mode), southern-hemisphere homes (home is always the north celestial pole), refraction,
 encoder/periodic errors, ST-4 guiding and the meaning of the ``:GU#`` digits.
@@ -27,18 +31,38 @@ encoder/periodic errors, ST-4 guiding and the meaning of the ``:GU#`` digits.
 
 from __future__ import annotations
 
-import math
 import threading
-from dataclasses import dataclass, field
-from datetime import date, datetime, time, timedelta, timezone
+from datetime import datetime, timezone
 from typing import Any
 
 from .. import sky
 from ..firmware import FirmwareVariant
-from ..protocol import SLEW_SPEEDS, MeridianSettings, MountMode, MountStatus
-from ..sky import LUNAR_DEG_S, SIDEREAL_DEG_S, SOLAR_DEG_S
+from ..protocol import SLEW_SPEEDS, MountMode, MountStatus
+from ..sky import SIDEREAL_DEG_S
 from .clock import Clock
+from .clocksite import ClockAndSite
 from .faults import FaultEvent, Faults
+from .flash import FlashSettings
+from .physics import Mechanics
+from .state import (
+    ACCEL_DEG_S2,
+    DEC,
+    EPOCH_LOCAL,
+    FACTORY_LATITUDE,
+    FACTORY_LONGITUDE,
+    HOME_P,
+    HOME_S,
+    PARK_P,
+    PARK_S,
+    PULSE_MAX_MS,
+    RA,
+    SYNC_MAX_DEG,
+    SYNC_POLE_DEG,
+    TRACK_RATES,
+    Persistent,
+    Pulse,
+    Slew,
+)
 
 __all__ = [
     "FACTORY_LATITUDE",
@@ -48,108 +72,11 @@ __all__ = [
 ]
 
 # --------------------------------------------------------------------------------------------
-# Constants
-# --------------------------------------------------------------------------------------------
-
-
-#: The site stored in every mount at the factory (Suzhou): +31°15'41", 120°43'11" E.
-FACTORY_LATITUDE = 31.0 + 15.0 / 60.0 + 41.0 / 3600.0
-FACTORY_LONGITUDE = 120.0 + 43.0 / 60.0 + 11.0 / 3600.0
-
-HOME_P = -90.0  # HA -6 h, the convention real mounts report at home (RA = LST + 6 h)
-HOME_S = 90.0
-#: Factory park: counterweight down (p = home), OTA horizontal pointing due east (Dec 0 at HA -6 h).
-PARK_P = -90.0
-PARK_S = 0.0
-
-ACCEL_DEG_S2 = 3.0
-SLEW_STEP_S = 0.02  # sampled-controller period during GOTO/home/park slews
-STEADY_STEP_S = 1.0  # exact integration allows long steps otherwise; bounds horizon-check lag
-SNAP_DEG = 0.3 / 3600.0  # a slewing axis this close to its target locks onto it
-AT_HOME_DEG = 1e-6
-PULSE_MAX_MS = 3000
-SYNC_MAX_DEG = 20.0
-SYNC_POLE_DEG = 85.0
-EPOCH_LOCAL = datetime(2000, 1, 1)  # the mount's clock at power-on: 01/01/00 00:00:00
-
-_TRACK_RATES = ("sidereal", "solar", "lunar", "custom")
-RA, DEC = 0, 1
-
-
-# --------------------------------------------------------------------------------------------
-# Internal state pieces
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass
-class _Persistent:
-    """What the mount keeps in flash across power cycles (field notes §5.3)."""
-
-    limits_enabled: bool = False
-    upper_limit: int = 90
-    lower_limit: int = 0
-    max_speed: int = 1440  # heavy duty: 720
-    mode: MountMode = MountMode.EQUATORIAL  # takes effect at the next power-up
-    parked: bool = False  # the :hP# latch, cleared only by :Spu#
-    custom_park: tuple[float, float] | None = None  # (p, s) stored by :Sp01#
-    buzzer: int = 1
-    meridian: MeridianSettings = field(default_factory=MeridianSettings)
-    guide_rate: float = 0.5
-    ble_suffix: str = "123456"  # takes effect at the next power-up
-    ble_paired: str | None = None
-    latitude: float = FACTORY_LATITUDE
-    longitude: float = FACTORY_LONGITUDE  # east positive; the mount shows it east-negative
-
-
-@dataclass
-class _Slew:
-    """A GOTO, home or park slew: per-axis targets, the primary one possibly moving."""
-
-    kind: str  # goto | home | park
-    t0: float  # emulated seconds at the start
-    p0: float  # primary target at t0
-    p_rate: float  # primary target velocity (sidereal for a GOTO: the target's HA grows)
-    s: float
-    side: sky.PierSide = sky.PierSide.WEST  # the pointing side at arrival (ambiguous at the pole)
-    done: list[bool] = field(default_factory=lambda: [False, False])
-
-    def target(self, axis: int, t: float) -> float:
-        return self.p0 + self.p_rate * (t - self.t0) if axis == RA else self.s
-
-    def velocity(self, axis: int) -> float:
-        return self.p_rate if axis == RA else 0.0
-
-
-@dataclass
-class _Pulse:
-    velocity: float  # mechanical deg/s added to the axis
-    end: float  # emulated seconds
-
-
-def _ramp(pos: float, vel: float, target: float, accel: float, dt: float) -> tuple[float, float]:
-    """Exact position and velocity after ``dt`` when accelerating at ``accel`` toward ``target``."""
-    dv = target - vel
-    t1 = abs(dv) / accel
-    if t1 >= dt:
-        new_vel = vel + math.copysign(accel * dt, dv)
-        return pos + (vel + new_vel) * 0.5 * dt, new_vel
-    return pos + (vel + target) * 0.5 * t1 + target * (dt - t1), target
-
-
-def _raw_ha_dec(p: float, s: float) -> tuple[float, float]:
-    """(HA hours, Dec degrees) the mechanical axes point at, before any alignment offset."""
-    if -90.0 <= s <= 90.0:
-        return sky.wrap_hours_12(p / 15.0), s
-    dec = 180.0 - s if s > 90.0 else -180.0 - s
-    return sky.wrap_hours_12(p / 15.0 + 12.0), dec
-
-
-# --------------------------------------------------------------------------------------------
 # The model
 # --------------------------------------------------------------------------------------------
 
 
-class MountModel:
+class MountModel(Mechanics, ClockAndSite, FlashSettings):
     """One emulated mount: thread-safe (one lock), advanced lazily to the clock on every call.
 
     Methods return plain values (bools, error codes, floats); the ``Responder`` turns them into
@@ -172,7 +99,7 @@ class MountModel:
         self._clock = clock
         self.firmware = firmware if firmware is not None else FirmwareVariant()
         self._accel = accel
-        self._persist = _Persistent()
+        self._persist = Persistent()
         if site is not None:
             self._persist.latitude, self._persist.longitude = float(site[0]), float(site[1])
         self.faults = faults if faults is not None else Faults()
@@ -218,9 +145,9 @@ class MountModel:
         self._pos = [HOME_P, HOME_S]
         self._vel = [0.0, 0.0]
         self._last_side = sky.PierSide.WEST
-        self._slew: _Slew | None = None
+        self._slew: Slew | None = None
         self._moves: list[float | None] = [None, None]
-        self._pulses: list[_Pulse | None] = [None, None]
+        self._pulses: list[Pulse | None] = [None, None]
         self._speed = SLEW_SPEEDS[9]
         self._axis_speed: list[float | None] = [None, None]
         # Tracking
@@ -248,294 +175,6 @@ class MountModel:
             self._set_local(now)
             self._utc_offset = 0.0
             self._date_set = self._time_set = self._lat_set = self._lon_set = True
-
-    # ---------------------------------------------------------------- physics
-
-    def _advance(self) -> None:
-        """Integrate the physics up to the clock's present (callers hold the lock)."""
-        now = self._clock.seconds()
-        while now - self._t > 1e-12:
-            if self._at_rest():
-                self._t = now  # nothing moves and nothing can start by itself: one jump
-                break
-            dt = min(now - self._t, SLEW_STEP_S if self._slew is not None else STEADY_STEP_S)
-            for pulse in self._pulses:
-                if pulse is not None and pulse.end - self._t > 1e-12:
-                    dt = min(dt, pulse.end - self._t)
-            if self._slew is None:
-                dt = self._until_meridian(dt)
-            self._step(dt)
-            self._t += dt
-            for axis, pulse in enumerate(self._pulses):
-                if pulse is not None and pulse.end - self._t <= 1e-9:
-                    self._pulses[axis] = None
-
-    def _at_rest(self) -> bool:
-        return (
-            self._slew is None
-            and not self._tracking
-            and self._vel[RA] == 0.0
-            and self._vel[DEC] == 0.0
-            and self._moves == [None, None]
-            and self._pulses == [None, None]
-        )
-
-    def _until_meridian(self, dt: float) -> float:
-        """Shorten a steady tracking step so the meridian stop happens where it should."""
-        if not self._tracking:
-            return dt
-        v = self._vel[RA]
-        p = self._pos[RA]
-        stop = self._meridian_stop_deg()
-        if v > 0.0 and v == self._commanded(RA) and p <= stop < p + v * dt:
-            return max((stop - p) / v + 1e-9, 1e-9)
-        return dt
-
-    def _step(self, dt: float) -> None:
-        if self._slew is not None:
-            self._slew_step(dt)
-        else:
-            for axis in (RA, DEC):
-                self._pos[axis], self._vel[axis] = _ramp(
-                    self._pos[axis], self._vel[axis], self._commanded(axis), self._accel, dt
-                )
-        self._note_side()
-        if self._tracking and self._slew is None:
-            self._check_tracking_limits()
-
-    def _slew_step(self, dt: float) -> None:
-        slew = self._slew
-        assert slew is not None
-        vmax = self._persist.max_speed * SIDEREAL_DEG_S
-        t = self._t
-        for axis in (RA, DEC):
-            vt = slew.velocity(axis)
-            if slew.done[axis]:
-                self._pos[axis] = slew.target(axis, t + dt)
-                self._vel[axis] = vt
-                continue
-            error = slew.target(axis, t) - self._pos[axis]
-            if abs(error) <= SNAP_DEG and abs(self._vel[axis] - vt) <= self._accel * dt + 1e-9:
-                slew.done[axis] = True
-                self._pos[axis] = slew.target(axis, t + dt)
-                self._vel[axis] = vt
-                continue
-            # Braking curve (never faster than it can stop), and never more than the remaining
-            # error per step, so the sampled controller settles instead of ringing.
-            speed = min(vmax, math.sqrt(2.0 * self._accel * abs(error)), abs(error) / dt)
-            desired = max(-vmax, min(vmax, vt + math.copysign(speed, error)))
-            self._pos[axis], self._vel[axis] = _ramp(self._pos[axis], self._vel[axis], desired, self._accel, dt)
-        if all(slew.done):
-            self._arrive(slew)
-
-    def _arrive(self, slew: _Slew) -> None:
-        self._slew = None
-        self._last_side = slew.side
-        if slew.kind == "goto":
-            self._tracking = True  # GOTO arrival switches tracking on, at the selected rate
-            self._track_error = None
-        else:
-            self._tracking = False
-            self._vel = [0.0, 0.0]
-            if slew.kind == "home":
-                self._pos = [HOME_P, HOME_S]
-                self._homed = True
-                self._home_flag = True
-
-    def _commanded(self, axis: int) -> float:
-        """Steady velocity an axis is driven at outside slews (mechanical deg/s)."""
-        move = self._moves[axis]
-        pulse = self._pulses[axis]
-        extra = (move or 0.0) + (pulse.velocity if pulse is not None else 0.0)
-        if axis == DEC:
-            return extra
-        tracking = self._tracking_velocity() if self._tracking else 0.0
-        if (move is not None or pulse is not None) and not self._tracking:
-            # Moves and pulses are relative to the sky: the RA reading changes at the commanded
-            # rate whether or not tracking is on (PYAM5 observation), so they ride on sidereal.
-            return SIDEREAL_DEG_S + extra
-        return tracking + extra
-
-    def _tracking_velocity(self) -> float:
-        return {
-            "sidereal": SIDEREAL_DEG_S,
-            "solar": SOLAR_DEG_S,
-            "lunar": LUNAR_DEG_S,
-            "custom": self._custom_multiple * SIDEREAL_DEG_S,
-        }[self._track_rate]
-
-    def _check_tracking_limits(self) -> None:
-        if self._pos[RA] > self._meridian_stop_deg():
-            self._tracking = False
-            self._track_error = 8
-            return
-        if self._raw_altitude() < 0.0:
-            self._tracking = False
-            self._track_error = 5
-
-    def _meridian_stop_deg(self) -> float:
-        """Primary-axis angle past which tracking stops (field notes §5.3, ZWO v2.1 p.18)."""
-        settings = self._persist.meridian
-        limit = float(settings.limit_degrees)
-        if limit < 0.0:
-            return limit
-        return max(limit, 1.0) if settings.track_after else 1.0
-
-    def _goto_limit_deg(self) -> float:
-        """The limit handed to ``sky.goto_pier_side``: how far past the meridian the west side may go."""
-        settings = self._persist.meridian
-        limit = float(settings.limit_degrees)
-        return limit if limit < 0.0 or settings.track_after else 0.0
-
-    def _note_side(self) -> None:
-        s = self._pos[DEC]
-        if s < 90.0 - 1e-9 and s > -90.0 + 1e-9:
-            self._last_side = sky.PierSide.WEST
-        elif s > 90.0 + 1e-9 or s < -90.0 - 1e-9:
-            self._last_side = sky.PierSide.EAST
-
-    # ---------------------------------------------------------------- derived quantities
-
-    def _at_home_position(self) -> bool:
-        return abs(self._pos[RA] - HOME_P) < AT_HOME_DEG and abs(self._pos[DEC] - HOME_S) < AT_HOME_DEG
-
-    def _side(self) -> sky.PierSide:
-        return self._last_side
-
-    def _moving(self) -> bool:
-        """A slew, manual move or pulse is under way (tracking alone does not count)."""
-        return (
-            self._slew is not None
-            or any(m is not None for m in self._moves)
-            or any(p is not None for p in self._pulses)
-        )
-
-    def _raw_ha_dec(self) -> tuple[float, float]:
-        return _raw_ha_dec(self._pos[RA], self._pos[DEC])
-
-    def _raw_altitude(self) -> float:
-        ha, dec = self._raw_ha_dec()
-        return sky.equatorial_to_horizontal(ha, dec, self._latitude)[0]
-
-    def _local_now(self) -> datetime:
-        return self._local_ref + timedelta(seconds=self._t - self._local_ref_t)
-
-    def _set_local(self, value: datetime) -> None:
-        self._local_ref = value
-        self._local_ref_t = self._t
-
-    def _mount_utc(self) -> datetime:
-        hours = self._utc_offset + (1.0 if self._dst else 0.0)
-        return (self._local_now() - timedelta(hours=hours)).replace(tzinfo=timezone.utc)
-
-    def _lst(self) -> float:
-        return sky.wrap_hours_24(sky.local_sidereal_time(self._mount_utc(), self._longitude) + self._lst_offset)
-
-    def _reported(self) -> tuple[float, float]:
-        ha, dec = self._raw_ha_dec()
-        raw_ra = sky.ra_from_hour_angle(self._lst(), ha)
-        ra = sky.wrap_hours_24(raw_ra + self._offset_ra)
-        return ra, max(-90.0, min(90.0, dec + self._offset_dec))
-
-    def _initialized(self) -> bool:
-        return self._date_set and self._time_set and self._lat_set and self._lon_set
-
-    # ---------------------------------------------------------------- date, time, site
-
-    def local_datetime(self) -> datetime:
-        """The mount's own (naive, local) wall clock."""
-        with self._lock:
-            self._advance()
-            return self._local_now()
-
-    def set_date(self, day: date) -> bool:
-        with self._lock:
-            self._advance()
-            now = self._local_now()
-            self._set_local(datetime.combine(day, now.time()))
-            self._date_set = True
-            return True
-
-    def set_time(self, clock: time) -> bool:
-        with self._lock:
-            self._advance()
-            self._set_local(datetime.combine(self._local_now().date(), clock))
-            self._time_set = True
-            return True
-
-    def set_utc_offset(self, utc_offset_hours: float) -> bool:
-        """The true offset (``:SG-08#`` means +8); the wire sign is the responder's business."""
-        if not -14.0 <= utc_offset_hours <= 14.0:
-            return False
-        with self._lock:
-            self._advance()
-            self._utc_offset = utc_offset_hours
-            return True
-
-    def utc_offset(self) -> float:
-        with self._lock:
-            return self._utc_offset
-
-    def set_date_time_zone(self, day: date, clock: time, utc_offset_hours: float) -> bool:
-        if not -14.0 <= utc_offset_hours <= 14.0:
-            return False
-        with self._lock:
-            self._advance()
-            self._set_local(datetime.combine(day, clock))
-            self._utc_offset = utc_offset_hours
-            self._date_set = self._time_set = True
-            return True
-
-    def set_dst(self, on: bool) -> bool:
-        """Daylight saving: the wall clock stays, UTC moves by an hour (so LST does too)."""
-        with self._lock:
-            self._advance()
-            self._dst = on
-            return True
-
-    def dst(self) -> bool:
-        with self._lock:
-            return self._dst
-
-    def set_sidereal_time(self, hours: float) -> bool:
-        """``:SS#``: make the LST read ``hours`` now, as an offset on the clock-derived LST."""
-        with self._lock:
-            self._advance()
-            self._lst_offset = 0.0
-            self._lst_offset = sky.wrap_hours_12(hours - self._lst())
-            return True
-
-    def sidereal_time(self) -> float:
-        with self._lock:
-            self._advance()
-            return self._lst()
-
-    def set_latitude(self, degrees: float) -> bool:
-        if not -90.0 <= degrees <= 90.0:
-            return False
-        with self._lock:
-            self._advance()
-            self._latitude = degrees
-            self._lat_set = True
-            return True
-
-    def set_longitude(self, east_degrees: float) -> bool:
-        if not -180.0 <= east_degrees <= 180.0:
-            return False
-        with self._lock:
-            self._advance()
-            self._longitude = east_degrees
-            self._lon_set = True
-            return True
-
-    def latitude(self) -> float:
-        with self._lock:
-            return self._latitude
-
-    def longitude(self) -> float:
-        """East-positive longitude the mount currently uses."""
-        with self._lock:
-            return self._longitude
 
     # ---------------------------------------------------------------- position, target
 
@@ -610,10 +249,10 @@ class MountModel:
                 p, s = (raw_ha - 12.0) * 15.0, 180.0 - raw_dec
             else:
                 p, s = raw_ha * 15.0, raw_dec
-            self._start_slew(_Slew("goto", self._t, p, SIDEREAL_DEG_S, s, side))
+            self._start_slew(Slew("goto", self._t, p, SIDEREAL_DEG_S, s, side))
             return 0
 
-    def _start_slew(self, slew: _Slew) -> None:
+    def _start_slew(self, slew: Slew) -> None:
         self._slew = slew
         self._moves = [None, None]
         self._pulses = [None, None]
@@ -625,7 +264,7 @@ class MountModel:
             self._advance()
             if self._persist.parked:
                 return False
-            self._start_slew(_Slew("home", self._t, HOME_P, 0.0, HOME_S))
+            self._start_slew(Slew("home", self._t, HOME_P, 0.0, HOME_S))
             return True
 
     def park(self) -> bool:
@@ -637,7 +276,7 @@ class MountModel:
             p, s = self._persist.custom_park or (PARK_P, PARK_S)
             self._persist.parked = True
             side = sky.PierSide.EAST if s > 90.0 else sky.PierSide.WEST
-            self._start_slew(_Slew("park", self._t, p, 0.0, s, side))
+            self._start_slew(Slew("park", self._t, p, 0.0, s, side))
             return True
 
     def unpark(self) -> bool:
@@ -762,7 +401,7 @@ class MountModel:
                 velocity = rate
             else:
                 velocity = rate * self._dec_sign() * (1.0 if direction == "n" else -1.0)
-            self._pulses[axis] = _Pulse(velocity, self._t + milliseconds / 1000.0)
+            self._pulses[axis] = Pulse(velocity, self._t + milliseconds / 1000.0)
             return True
 
     def pulsing(self) -> tuple[bool, bool]:
@@ -785,7 +424,7 @@ class MountModel:
     # ---------------------------------------------------------------- tracking
 
     def set_tracking_rate(self, rate: str) -> None:
-        if rate not in _TRACK_RATES:
+        if rate not in TRACK_RATES:
             raise ValueError(f"unknown tracking rate {rate!r}")
         with self._lock:
             self._advance()
@@ -862,101 +501,6 @@ class MountModel:
             self._advance()
             self._offset_ra = self._offset_dec = 0.0
             self._alignment_points = 0
-
-    # ---------------------------------------------------------------- meridian, limits, speed
-
-    def set_meridian(self, settings: MeridianSettings) -> bool:
-        if not -15 <= settings.limit_degrees <= 15:
-            return False
-        with self._lock:
-            self._advance()
-            self._persist.meridian = settings
-            return True
-
-    def meridian(self) -> MeridianSettings:
-        with self._lock:
-            return self._persist.meridian
-
-    def set_limits_enabled(self, on: bool) -> None:
-        with self._lock:
-            self._persist.limits_enabled = on
-
-    def limits_enabled(self) -> bool:
-        with self._lock:
-            return self._persist.limits_enabled
-
-    def set_upper_limit(self, degrees: int) -> bool:
-        if not 60 <= degrees <= 90:
-            return False
-        with self._lock:
-            self._persist.upper_limit = degrees
-            return True
-
-    def set_lower_limit(self, degrees: int) -> bool:
-        if not 0 <= degrees <= 30:
-            return False
-        with self._lock:
-            self._persist.lower_limit = degrees
-            return True
-
-    def altitude_limits(self) -> tuple[int, int]:
-        """(lower, upper) in degrees."""
-        with self._lock:
-            return self._persist.lower_limit, self._persist.upper_limit
-
-    def set_max_speed(self, multiple: int) -> bool:
-        """``:SRl#``: heavy-duty mode caps slews and moves at 720x instead of 1440x."""
-        if multiple not in (720, 1440):
-            return False
-        with self._lock:
-            self._advance()
-            self._persist.max_speed = multiple
-            return True
-
-    def max_speed(self) -> int:
-        with self._lock:
-            return self._persist.max_speed
-
-    # ---------------------------------------------------------------- mode, buzzer, identity
-
-    def request_mode(self, mode: MountMode) -> None:
-        """``:AP#``/``:AA#``: stored now, in effect after the next power-up (as on hardware)."""
-        with self._lock:
-            self._persist.mode = mode
-
-    def mode(self) -> MountMode:
-        with self._lock:
-            return self._mode
-
-    def set_buzzer(self, level: int) -> None:
-        with self._lock:
-            self._persist.buzzer = level
-
-    def buzzer(self) -> int:
-        with self._lock:
-            return self._persist.buzzer
-
-    def ble_name(self) -> str:
-        with self._lock:
-            return f"{self.firmware.model}_{self._ble_suffix}"
-
-    def set_ble_suffix(self, suffix: str) -> bool:
-        """Stored now, advertised after the next power-up."""
-        if not (suffix.isascii() and suffix.isalnum() and 1 <= len(suffix) <= 12):
-            return False
-        with self._lock:
-            self._persist.ble_suffix = suffix
-            return True
-
-    def ble_pair(self, pairing_id: str) -> bool:
-        """``:BS#``: OK for a six-character id unless another device is already paired."""
-        if len(pairing_id) != 6 or not pairing_id.isalnum():
-            return False
-        with self._lock:
-            if self._persist.ble_paired not in (None, pairing_id):
-                return False
-            self._persist.ble_paired = pairing_id
-            return True
 
     # ---------------------------------------------------------------- status and inspection
 

@@ -37,7 +37,8 @@ from ..protocol import (
     parse_time,
     parse_utc_offset,
 )
-from .model import DEC, RA, MountModel
+from .model import MountModel
+from .state import DEC, RA
 
 __all__ = ["Responder"]
 

@@ -1,0 +1,173 @@
+"""The pieces of an emulated mount's state: constants, what it keeps in flash, slews, pulses, axis kinematics.
+
+Shared by the parts of :class:`~alpaca_zwo.emulator.model.MountModel` (``physics``, ``clocksite``,
+``flash``); :class:`ModelBase` declares the state they all work on, so each part can live in its
+own module and still be checked as one object.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass, field
+from datetime import datetime
+
+from .. import sky
+from ..firmware import FirmwareVariant
+from ..protocol import MeridianSettings, MountMode
+from .clock import Clock
+from .faults import Faults
+
+# --------------------------------------------------------------------------------------------
+# Constants
+# --------------------------------------------------------------------------------------------
+
+
+#: The site stored in every mount at the factory (Suzhou): +31°15'41", 120°43'11" E.
+FACTORY_LATITUDE = 31.0 + 15.0 / 60.0 + 41.0 / 3600.0
+FACTORY_LONGITUDE = 120.0 + 43.0 / 60.0 + 11.0 / 3600.0
+
+HOME_P = -90.0  # HA -6 h, the convention real mounts report at home (RA = LST + 6 h)
+HOME_S = 90.0
+#: Factory park: counterweight down (p = home), OTA horizontal pointing due east (Dec 0 at HA -6 h).
+PARK_P = -90.0
+PARK_S = 0.0
+
+ACCEL_DEG_S2 = 3.0
+SLEW_STEP_S = 0.02  # sampled-controller period during GOTO/home/park slews
+STEADY_STEP_S = 1.0  # exact integration allows long steps otherwise; bounds horizon-check lag
+SNAP_DEG = 0.3 / 3600.0  # a slewing axis this close to its target locks onto it
+AT_HOME_DEG = 1e-6
+PULSE_MAX_MS = 3000
+SYNC_MAX_DEG = 20.0
+SYNC_POLE_DEG = 85.0
+EPOCH_LOCAL = datetime(2000, 1, 1)  # the mount's clock at power-on: 01/01/00 00:00:00
+
+TRACK_RATES = ("sidereal", "solar", "lunar", "custom")
+RA, DEC = 0, 1
+
+
+# --------------------------------------------------------------------------------------------
+# Internal state pieces
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Persistent:
+    """What the mount keeps in flash across power cycles (field notes §5.3)."""
+
+    limits_enabled: bool = False
+    upper_limit: int = 90
+    lower_limit: int = 0
+    max_speed: int = 1440  # heavy duty: 720
+    mode: MountMode = MountMode.EQUATORIAL  # takes effect at the next power-up
+    parked: bool = False  # the :hP# latch, cleared only by :Spu#
+    custom_park: tuple[float, float] | None = None  # (p, s) stored by :Sp01#
+    buzzer: int = 1
+    meridian: MeridianSettings = field(default_factory=MeridianSettings)
+    guide_rate: float = 0.5
+    ble_suffix: str = "123456"  # takes effect at the next power-up
+    ble_paired: str | None = None
+    latitude: float = FACTORY_LATITUDE
+    longitude: float = FACTORY_LONGITUDE  # east positive; the mount shows it east-negative
+
+
+@dataclass
+class Slew:
+    """A GOTO, home or park slew: per-axis targets, the primary one possibly moving."""
+
+    kind: str  # goto | home | park
+    t0: float  # emulated seconds at the start
+    p0: float  # primary target at t0
+    p_rate: float  # primary target velocity (sidereal for a GOTO: the target's HA grows)
+    s: float
+    side: sky.PierSide = sky.PierSide.WEST  # the pointing side at arrival (ambiguous at the pole)
+    done: list[bool] = field(default_factory=lambda: [False, False])
+
+    def target(self, axis: int, t: float) -> float:
+        return self.p0 + self.p_rate * (t - self.t0) if axis == RA else self.s
+
+    def velocity(self, axis: int) -> float:
+        return self.p_rate if axis == RA else 0.0
+
+
+@dataclass
+class Pulse:
+    velocity: float  # mechanical deg/s added to the axis
+    end: float  # emulated seconds
+
+
+def ramp(pos: float, vel: float, target: float, accel: float, dt: float) -> tuple[float, float]:
+    """Exact position and velocity after ``dt`` when accelerating at ``accel`` toward ``target``."""
+    dv = target - vel
+    t1 = abs(dv) / accel
+    if t1 >= dt:
+        new_vel = vel + math.copysign(accel * dt, dv)
+        return pos + (vel + new_vel) * 0.5 * dt, new_vel
+    return pos + (vel + target) * 0.5 * t1 + target * (dt - t1), target
+
+
+def axes_to_ha_dec(p: float, s: float) -> tuple[float, float]:
+    """(HA hours, Dec degrees) the mechanical axes point at, before any alignment offset."""
+    if -90.0 <= s <= 90.0:
+        return sky.wrap_hours_12(p / 15.0), s
+    dec = 180.0 - s if s > 90.0 else -180.0 - s
+    return sky.wrap_hours_12(p / 15.0 + 12.0), dec
+
+
+class ModelBase:
+    """The state every part of the model reads and writes, under ``_lock`` (set up by ``MountModel``)."""
+
+    _lock: threading.RLock
+    _clock: Clock
+    firmware: FirmwareVariant
+    faults: Faults
+    power_ups: int
+    _accel: float
+    _persist: Persistent
+    _t: float  # emulated seconds the physics has been advanced to
+    # The mount's own clock and site (volatile: lost at power-off)
+    _local_ref: datetime
+    _local_ref_t: float
+    _utc_offset: float
+    _dst: bool
+    _lst_offset: float
+    _date_set: bool
+    _time_set: bool
+    _lat_set: bool
+    _lon_set: bool
+    _latitude: float
+    _longitude: float
+    _mode: MountMode
+    _ble_suffix: str
+    # Mechanics
+    _pos: list[float]
+    _vel: list[float]
+    _last_side: sky.PierSide
+    _slew: Slew | None
+    _moves: list[float | None]
+    _pulses: list[Pulse | None]
+    _speed: float
+    _axis_speed: list[float | None]
+    # Tracking
+    _tracking: bool
+    _track_rate: str
+    _custom_multiple: float
+    _track_error: int | None
+    # Targets and alignment
+    _target_ra: float
+    _target_dec: float
+    _offset_ra: float
+    _offset_dec: float
+    _alignment_points: int
+    # Home bookkeeping
+    _homed: bool
+    _home_flag: bool
+
+    def _advance(self) -> None:
+        """Integrate the physics up to the clock's present (``physics.Mechanics``)."""
+        raise NotImplementedError
+
+    def _lst(self) -> float:
+        """The mount's local sidereal time (``clocksite.ClockAndSite``)."""
+        raise NotImplementedError
