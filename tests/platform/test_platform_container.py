@@ -112,9 +112,12 @@ def image(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     ensure_base_image(scratch)
     based = time.monotonic()
     # docker format keeps HEALTHCHECK (OCI image config has no field for it).
+    # The build context is a clone: committed files only, as a user's checkout (and CI's) has them.
+    context = scratch / "context"
+    run(["git", "clone", "--quiet", "--no-hardlinks", str(REPO_ROOT), str(context)], 300, "git clone")
     limits = [word for limit in _ulimits() for word in ("--ulimit", limit)]  # build ignores default_ulimits
     run(podman("build", "--pull=never", "--network", "host", "--format", "docker", *limits, "-t", IMAGE,
-               "-f", str(REPO_ROOT / "Dockerfile"), str(REPO_ROOT)), BUILD_TIMEOUT_S, "podman build of the Dockerfile")
+               "-f", str(context / "Dockerfile"), str(context)), BUILD_TIMEOUT_S, "podman build of the Dockerfile")
     subprocess.run(podman("image", "prune", "-f"), capture_output=True, timeout=300)  # earlier builds' layers
     print(f"\nstand-in base ready in {based - started:.0f} s; image built in {time.monotonic() - based:.0f} s")
     yield IMAGE
