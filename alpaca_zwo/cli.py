@@ -71,16 +71,19 @@ def _configure_logging(level: str, file: str) -> None:
                         format="%(asctime)s %(levelname)-7s %(name)s: %(message)s")
 
 
-def _service_args(args: argparse.Namespace, config: Path) -> list[str]:
-    """The options of this command line that the service should start the server with."""
-    out = ["--config", str(config.absolute())]
-    for flag, value in (("--device", args.device), ("--host", args.host), ("--port", args.port),
-                        ("--discovery-port", args.discovery_port), ("--emulator-speed", args.emulator_speed),
-                        ("--emulator-baud", args.emulator_baud), ("--log-level", args.log_level)):
-        if value is not None:
-            out += [flag, str(value)]
-    out += [word for port in args.probe for word in ("--probe", port)]
-    return [*out, "--mdns"] if args.mdns else out
+def _service_args(argv: list[str], config: Path) -> list[str]:
+    """This command line as the service should run it: without --print-service, with an absolute --config.
+
+    Everything else is passed through as given, so options added later reach the service too.
+    """
+    out: list[str] = []
+    words = iter(argv)
+    for word in words:
+        if word in ("--print-service", "--config"):
+            next(words, None)  # and its value
+        elif not word.startswith(("--print-service=", "--config=")):
+            out.append(word)
+    return ["--config", str(config.absolute()), *out]
 
 
 def _resolve_device(args: argparse.Namespace) -> str | None:
@@ -96,10 +99,10 @@ def _resolve_device(args: argparse.Namespace) -> str | None:
     return args.device
 
 
-def _one_shot(args: argparse.Namespace, path: Path) -> int | None:
+def _one_shot(args: argparse.Namespace, argv: list[str], path: Path) -> int | None:
     """The commands that print something and exit (None when the server should run)."""
     if args.print_service:
-        print(render(args.print_service, _service_args(args, path)), end="")
+        print(render(args.print_service, _service_args(argv, path)), end="")
         return 0
     if args.list_devices:
         candidates = list_candidates(args.probe)
@@ -125,7 +128,7 @@ def _install_stop_handlers(stop: threading.Event) -> None:
 def server_main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     path = args.config or default_config_path()
-    done = _one_shot(args, path)
+    done = _one_shot(args, sys.argv[1:] if argv is None else argv, path)
     if done is not None:
         return done
     try:
