@@ -88,15 +88,16 @@ def _service_args(argv: list[str], config: Path) -> list[str]:
 
 def _resolve_device(args: argparse.Namespace) -> str | None:
     """``--device auto`` becomes the mount's port; an explicit port is checked. DeviceError says what to do."""
-    if args.device == "auto":
+    device: str | None = args.device
+    if device == "auto":
         device = find_mount(args.probe)
         print(f"alpaca-zwo: found the mount at {device}", file=sys.stderr, flush=True)
         return device
-    if args.device:
-        warning = check_device(args.device)
+    if device:
+        warning = check_device(device)
         if warning:
             print(f"alpaca-zwo: warning: {warning}", file=sys.stderr, flush=True)
-    return args.device
+    return device
 
 
 def _one_shot(args: argparse.Namespace, argv: list[str], path: Path) -> int | None:

@@ -13,6 +13,7 @@ import sys
 import urllib.error
 import urllib.request
 from pathlib import Path
+from typing import Any
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -39,7 +40,7 @@ def _option(words: list[str], name: str) -> str | None:
 def server_address(pid: int = 1) -> tuple[str, int]:
     """(host to ask, port) of the server running as ``pid``."""
     words = [w.decode(errors="replace") for w in Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0") if w]
-    server: dict = {}
+    server: dict[str, Any] = {}
     config = _option(words, "--config")
     if config:
         try:
