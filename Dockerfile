@@ -2,7 +2,8 @@
 #   docker build -t alpaca-zwo .
 #   docker run --rm --network host --device /dev/ttyACM0 -v alpaca-zwo:/config alpaca-zwo --device /dev/ttyACM0
 # Without --device the built-in emulator is used. The config (with the persistent UniqueID) lives in /config.
-# Pure Python: the same file builds for amd64, arm64 and armv7. Tested by tests/platform/test_platform_container.py.
+# No compiler needed: wheels for amd64 and arm64 (armv7 lacks pyerfa/numpy wheels: tests/platform/test_platform_wheels.py).
+# Built and checked by tests/platform/test_platform_container.py.
 FROM python:3.11-slim
 
 ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 PIP_NO_CACHE_DIR=1
