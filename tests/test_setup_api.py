@@ -6,6 +6,7 @@ what it changes is exactly what N.I.N.A. and the other clients then see.
 
 from __future__ import annotations
 
+import ast
 import http.client
 import logging
 import math
@@ -643,3 +644,18 @@ def test_status_never_waits_for_the_mount(connected: Client) -> None:
         starts.append(time.perf_counter() - started)
     assert sorted(starts)[len(starts) // 2] < 0.05
     assert not math.isnan(sum(starts))
+
+
+def test_the_web_package_talks_to_the_server_only_through_the_facade() -> None:
+    """Layering: web/ may import the facade and itself, never the mount, link or Telescope directly."""
+    package = Path(__file__).resolve().parents[1] / "alpaca_zwo" / "web"
+    for module in sorted(package.glob("*.py")):
+        tree = ast.parse(module.read_text(), str(module))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.level:
+                target = "." * node.level + (node.module or "")
+                assert node.level == 1 or target == "..facade", f"{module.name} imports {target}"
+            elif isinstance(node, ast.Import | ast.ImportFrom):
+                names = [a.name for a in node.names] if isinstance(node, ast.Import) else [node.module or ""]
+                assert not any(n.startswith("alpaca_zwo") for n in names), f"{module.name} imports {names}"
+        assert "mount.link" not in module.read_text(), module.name
