@@ -38,6 +38,7 @@ from ._exceptions import (
 from .clients import ClientKey, ClientRegistry, current_client
 from .config import DeviceSettings, Settings, horizon_altitude_at
 from .motion import Motion, MotionKind, MotionSupervisor
+from .motion.offsets import MAX_DUTY, guide_speed_arcsec, ra_rate_to_arcsec
 from .mount import Mount, MountState
 from .protocol import SLEW_SPEEDS, Direction, MeridianSettings, MountMode, TrackRate
 from .sky import SIDEREAL_DEG_S, PierSide
@@ -97,6 +98,8 @@ class Telescope:
         self._target_ra: float | None = None
         self._target_dec: float | None = None
         self._settle_s = 0
+        self._ra_rate = 0.0  # RightAscensionRate as written (RA seconds per sidereal second)
+        self._dec_rate = 0.0  # DeclinationRate as written (arcseconds per second)
         self._utc_offset = timedelta(0)
         self._meridian = MeridianSettings()
         self.motion = MotionSupervisor(mount, lambda: self.store.settings, self._lst, self.registry,
@@ -427,6 +430,10 @@ class Telescope:
         self._require_connected()
         with self._mount_errors("setting the tracking rate"):
             self.mount.set_tracking_rate(DRIVE_RATES[value])
+        if DRIVE_RATES[value] is not TrackRate.SIDEREAL:  # offsets exist only on sidereal (Platform 7)
+            self._ra_rate = self._dec_rate = 0.0
+            self.motion.offsets.set_rate(0, 0.0)
+            self.motion.offsets.set_rate(1, 0.0)
 
     def at_park(self) -> bool:
         self._require_connected()
@@ -546,10 +553,10 @@ class Telescope:
         return False
 
     def can_set_declination_rate(self) -> bool:
-        return False
+        return True
 
     def can_set_right_ascension_rate(self) -> bool:
-        return False
+        return True
 
     def can_move_axis(self, axis: int) -> bool:
         if axis not in (0, 1, 2):
@@ -582,17 +589,39 @@ class Telescope:
         if value:
             raise MemberNotImplemented("the mount does not correct for refraction")
 
+    # Rate offsets are paid as guide pulses by the motion supervisor (motion/offsets.py); the values
+    # clients wrote are kept exactly, for read-back.
+
     def declination_rate(self) -> float:
-        return 0.0
+        self._require_connected()
+        return self._dec_rate if self._sidereal() else 0.0
 
     def set_declination_rate(self, value: float) -> None:
-        raise MemberNotImplemented("the mount cannot track with a declination rate offset")
+        self._set_rate_offset(1, value, value, "DeclinationRate", "arcseconds per second")
+        self._dec_rate = value
 
     def right_ascension_rate(self) -> float:
-        return 0.0
+        self._require_connected()
+        return self._ra_rate if self._sidereal() else 0.0
 
     def set_right_ascension_rate(self, value: float) -> None:
-        raise MemberNotImplemented("the mount cannot track with a right ascension rate offset")
+        self._set_rate_offset(0, value, ra_rate_to_arcsec(value), "RightAscensionRate",
+                              "seconds of RA per sidereal second")
+        self._ra_rate = value
+
+    def _sidereal(self) -> bool:
+        return self.mount.state.tracking_rate is TrackRate.SIDEREAL
+
+    def _set_rate_offset(self, axis: int, value: float, arcsec_s: float, name: str, unit: str) -> None:
+        self._require_connected()
+        if not self._sidereal():
+            raise InvalidOperation(f"{name} can only be set while TrackingRate is sidereal (Platform 7)")
+        largest = MAX_DUTY * guide_speed_arcsec(self.mount.state.guide_rate)
+        if not math.isfinite(arcsec_s) or abs(arcsec_s) > largest:
+            limit = largest if axis == 1 else largest / ra_rate_to_arcsec(1.0)
+            raise InvalidValue(f"{name} {value} is beyond ±{limit:.4f} {unit}: offsets are made of guide pulses "
+                               f"and can be at most {MAX_DUTY:.0%} of the guide rate")
+        self.motion.offsets.set_rate(axis, arcsec_s)
 
     # -- guide rates (one mount rate shared by both axes) --------------------------------------
 

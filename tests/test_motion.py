@@ -326,3 +326,68 @@ def test_moveaxis_at_full_rate_stops_before_the_altitude_limit(server_factory: S
     assert _at_rest(model)
     assert lowest >= floor, f"MoveAxis went to {lowest:.3f}°, below the {floor}° limit"
     assert api.value("Slewing") is False
+
+
+# -- rate offsets (issue 15.4): guide pulses on a schedule ----------------------------------------
+
+
+def _offset_run(server: AlpacaZwoServer, api: Api, model: MountModel, seconds: float,
+                ra_rate: float, dec_rate: float) -> tuple[float, float]:
+    """Track with offsets for ``seconds`` of mount time; return the (RA, Dec) moved in arcsec."""
+    api.ok("RightAscensionRate", RightAscensionRate=ra_rate)
+    api.ok("DeclinationRate", DeclinationRate=dec_rate)
+    ra0, dec0 = model.position()
+    t0 = _mount_seconds(server)
+    wait_until(lambda: _mount_seconds(server) - t0 >= seconds, 120, f"{seconds} s of offset tracking")
+    ra1, dec1 = model.position()
+    return wrap12(ra1 - ra0) * 15 * 3600, (dec1 - dec0) * 3600
+
+
+def test_rate_offsets_move_the_mount_at_the_requested_rates(server_factory: ServerFactory) -> None:
+    server = _server(server_factory)
+    api, model = _api(server), _model(server)
+    api.ok("Tracking", Tracking=True)
+    api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-1.0), Declination=20.0)
+    wait_until(lambda: api.value("Slewing") is False, 60, "the slew")
+    assert api.value("CanSetRightAscensionRate") is True and api.value("CanSetDeclinationRate") is True
+    ra_rate, dec_rate = 0.2 / 15.0, -3.0  # 0.2 s of RA per sidereal second (~3″/s) and -3″/s
+    moved_ra, moved_dec = _offset_run(server, api, model, 20.0, ra_rate, dec_rate)
+    assert api.value("RightAscensionRate") == ra_rate and api.value("DeclinationRate") == dec_rate
+    expected_ra = ra_rate * 15 * 1.00273790935 * 20.0
+    assert moved_ra == pytest.approx(expected_ra, abs=max(1.0, 0.05 * abs(expected_ra)))
+    assert moved_dec == pytest.approx(dec_rate * 20.0, abs=max(1.0, 0.05 * abs(dec_rate * 20.0)))
+    assert api.value("IsPulseGuiding") is False and api.value("Slewing") is False
+
+
+def test_rate_offsets_and_client_pulses_share_the_axes(server_factory: ServerFactory) -> None:
+    """A client's guide pulses during an offset: both displacements arrive, neither is lost."""
+    server = _server(server_factory)
+    api, model = _api(server), _model(server)
+    api.ok("Tracking", Tracking=True)
+    api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-1.0), Declination=20.0)
+    wait_until(lambda: api.value("Slewing") is False, 60, "the slew")
+    guide = api.value("GuideRateDeclination") * 3600.0  # arcsec/s
+    dec_rate = 2.0
+    api.ok("DeclinationRate", DeclinationRate=dec_rate)
+    _, dec0 = model.position()
+    t0 = _mount_seconds(server)
+    for _ in range(4):  # 4 x 1 s north pulses, PHD2-style, while the offset runs
+        api.ok("PulseGuide", Direction=0, Duration=1000)
+        wait_until(lambda: api.value("IsPulseGuiding") is False, 30, "the pulse to end")
+    wait_until(lambda: _mount_seconds(server) - t0 >= 20.0, 120, "20 s")
+    api.ok("DeclinationRate", DeclinationRate=0.0)
+    elapsed = _mount_seconds(server) - t0
+    moved = (model.position()[1] - dec0) * 3600
+    expected = dec_rate * elapsed + 4 * guide * 1.0
+    assert moved == pytest.approx(expected, abs=2.0), f"moved {moved:.1f}″, expected {expected:.1f}″"
+
+
+def test_rate_offsets_are_refused_beyond_the_guide_rate_and_off_sidereal(server_factory: ServerFactory) -> None:
+    server = _server(server_factory)
+    api = _api(server)
+    api.ok("Tracking", Tracking=True)
+    assert api.error("DeclinationRate", DeclinationRate=100.0) == 0x401
+    assert api.error("RightAscensionRate", RightAscensionRate=1.0) == 0x401
+    api.ok("TrackingRate", TrackingRate=1)
+    assert api.error("DeclinationRate", DeclinationRate=1.0) == 0x40B
+    assert api.value("DeclinationRate") == 0.0

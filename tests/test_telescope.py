@@ -441,7 +441,7 @@ _EITHER_OK_OR_407 = {
     "TargetRightAscension",
 }
 _NOT_IMPLEMENTED_GETS = {"ApertureArea", "ApertureDiameter", "FocalLength"}
-_NOT_IMPLEMENTED_PUTS = {"DeclinationRate", "RightAscensionRate", "SideOfPier"}
+_NOT_IMPLEMENTED_PUTS = {"SideOfPier"}
 _COMMANDS = {"CommandBlind", "CommandBool", "CommandString"}
 
 
@@ -512,10 +512,6 @@ def not_implemented_cases() -> list[Case]:
         case("GET", "FocalLength", NOT_IMPLEMENTED),
         case("PUT", "SideOfPier", NOT_IMPLEMENTED, SideOfPier=0),
         case("PUT", "SideOfPier", NOT_IMPLEMENTED, SideOfPier=1),
-        case("PUT", "DeclinationRate", NOT_IMPLEMENTED, DeclinationRate=0.0),
-        case("PUT", "DeclinationRate", NOT_IMPLEMENTED, DeclinationRate=0.05),
-        case("PUT", "RightAscensionRate", NOT_IMPLEMENTED, RightAscensionRate=0.0),
-        case("PUT", "RightAscensionRate", NOT_IMPLEMENTED, RightAscensionRate=0.05 / 15),
         case("PUT", "DoesRefraction", NOT_IMPLEMENTED, DoesRefraction=True),
         case("PUT", "MoveAxis", NOT_IMPLEMENTED, Axis=2, Rate=0.0),  # CanMoveAxis(2) is false
         case("PUT", "CommandBlind", NOT_IMPLEMENTED, Command=":Q#", Raw=True),
@@ -705,8 +701,6 @@ def test_not_connected_after_the_last_client_disconnects(server: AlpacaZwoServer
 def test_lacking_capabilities_report_false_and_answer_0x400(server: AlpacaZwoServer, api: Api,
                                                             transport_kind: str) -> None:
     assert api.value("CanSetPierSide") is False
-    assert api.value("CanSetDeclinationRate") is False
-    assert api.value("CanSetRightAscensionRate") is False
     assert api.value("CanMoveAxis", Axis=2) is False
     assert api.value("AxisRates", Axis=2) == []
     assert api.value("DeclinationRate") == 0.0
@@ -719,7 +713,7 @@ def test_lacking_capabilities_report_false_and_answer_0x400(server: AlpacaZwoSer
 def test_implemented_capabilities_report_true(api: Api) -> None:
     for name in ("CanFindHome", "CanPark", "CanPulseGuide", "CanSetGuideRates", "CanSetPark", "CanSetTracking",
                  "CanSlew", "CanSlewAltAz", "CanSlewAltAzAsync", "CanSlewAsync", "CanSync", "CanSyncAltAz",
-                 "CanUnpark"):
+                 "CanUnpark", "CanSetRightAscensionRate", "CanSetDeclinationRate"):
         assert api.value(name) is True, name
     assert api.value("CanMoveAxis", Axis=0) is True
     assert api.value("CanMoveAxis", Axis=1) is True
@@ -1332,9 +1326,11 @@ def test_tracking_rates(api: Api, model: MountModel, code: int, mount_rate: str)
     api.ok("TrackingRate", TrackingRate=code)
     assert api.value("TrackingRate") == code
     assert model.tracking_rate() == mount_rate
-    # Rate offsets read 0.0 whatever the rate (ConformU, Platform 7), and stay unsettable.
+    # Rate offsets read 0.0 off sidereal and cannot be set there (Platform 7); on sidereal they can.
     assert api.value("RightAscensionRate") == 0.0 and api.value("DeclinationRate") == 0.0
-    assert api.put("RightAscensionRate", RightAscensionRate=0.05 / 15).error == NOT_IMPLEMENTED
+    expected = OK if mount_rate == "sidereal" else INVALID_OPERATION
+    assert api.put("RightAscensionRate", RightAscensionRate=0.05 / 15).error == expected
+    assert api.put("DeclinationRate", DeclinationRate=0.5).error == expected
 
 
 # ================================================================================================

@@ -69,6 +69,7 @@ from .kinds import (
 )
 from .landing import LANDING_MARGIN_S, SLEW_S_FIXED, SLEW_S_PER_DEG, LandingMixin
 from .limits import LimitsMixin
+from .offsets import CYCLE_S, RateOffsets, guide_speed_arcsec
 from .rest import Reading, RestMixin
 
 log = logging.getLogger(__name__)
@@ -109,6 +110,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
         self.pulses: dict[int, Pulse] = {}
         self.settle_s = 0.0
         self.parked = False
+        self.offsets = RateOffsets()
         self._readings: deque[Reading] = deque(maxlen=8)
         self._stop_pending = ""  # why a safety stop is still owed to the mount ('' = none)
         self._stopped = threading.Event()
@@ -142,6 +144,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
             moving = previous is not None or self.moves or state.moving_axes or state.goto_running
             self.moves.clear()
             self.pulses.clear()
+            self.offsets.reset()
             self.motion = self._stopping(speed, previous) if moving else None
         try:
             self.mount.stop()
@@ -342,6 +345,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
         axis = 0 if direction in (Direction.EAST, Direction.WEST) else 1
         chunk = min(duration_ms, PULSE_CHUNK_MS)
         with self._start_lock:
+            self.offsets.refund(axis, self.mount.monotonic())  # this pulse replaces any offset pulse
             generation = self.generation
             try:
                 end = self.mount.pulse_guide(direction, chunk, guard=self._guard(generation))
@@ -395,6 +399,8 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
         landing = motion.landing if motion is not None and motion.phase is Phase.LANDING else None
         if landing is not None and landing.t_star is not None:
             delays.append(max(0.0, (landing.t_star - now) / rate - 0.05))
+        if self.offsets.active and self.offsets.accrued_at is not None:
+            delays.append(max(0.0, (self.offsets.accrued_at + CYCLE_S - now) / rate))
         return min(delays)
 
     def _tick(self) -> None:
@@ -406,6 +412,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
         self._record_reading(state)
         now = self.mount.monotonic()
         self._tick_pulses(now)
+        self._tick_offsets(now, state)
         self._tick_motion(now, state)
         self._tick_watchdog()
         self._tick_limits(state)
@@ -438,6 +445,36 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
             with self._lock:
                 if self.pulses.get(axis) is pulse:
                     self.pulses[axis] = replacement
+
+    def _tick_offsets(self, now: float, state: MountState) -> None:
+        """Pay the rate offsets' owed displacement with guide pulses (see offsets.py)."""
+        offsets = self.offsets
+        if not offsets.active:
+            return
+        tracking = bool(state.tracking and state.tracking.on)
+        if self.motion is not None or self.moves or not tracking:
+            offsets.reset()  # a slew or a stop starts the offset path afresh from where it ends
+            return
+        if not offsets.due(now):
+            return
+        offsets.accrue(now)
+        guide = guide_speed_arcsec(state.guide_rate)
+        generation = self.generation
+        for axis in (0, 1):
+            if axis in self.pulses or offsets.axes[axis].pulse_end > now:
+                continue  # a client pulse (or the last offset pulse) is running there
+            pulse = offsets.next_pulse(axis, guide)
+            if pulse is None:
+                continue
+            direction, ms = pulse
+            try:
+                end = self.mount.pulse_guide(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation))
+            except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
+                log.debug("rate offset pulse not sent: %s", exc)
+                offsets.axes[axis].owed += ms / 1000.0 * guide * (1 if direction in (Direction.EAST, Direction.NORTH)
+                                                                  else -1)
+                continue
+            offsets.sent(axis, end, ms, direction, guide)
 
     # -- motion phases -------------------------------------------------------------------------
 
