@@ -159,5 +159,24 @@ def test_readme_setup_command_on_fresh_debian(suite: str, root_only: None, tmp_p
     assert venv_python.exists(), f"the venv is not on the system's Python {version}"
     config = root / "home" / USER / ".config/alpaca-zwo/config.toml"
     assert config.exists() and config.stat().st_uid == uid, "the server did not run as the user"
+    missing = _second_command_as_user(root, uid, gid)
     print(f"{suite}: Python {version}; cache ready after {prepared - started:.0f} s; "
-          f"answered {answered_after:.1f} s after the install; `{command}`")
+          f"answered {answered_after:.1f} s after the install; `{command}`; run-tests asks for: {' '.join(missing)}")
+
+
+def _second_command_as_user(root: Path, uid: int, gid: int) -> list[str]:
+    """``./scripts/run-tests`` as the user on the fresh system: one ``sudo apt-get install`` line
+    naming packages that exist in this release (checked with the root's own apt), and exit 1."""
+    done = subprocess.run(
+        chroot_command(root, ["bash", "-c", "cd ~/alpaca-zwo && ./scripts/run-tests -q"], user=(uid, gid),
+                       env={"HOME": f"/home/{USER}", "USER": USER}),
+        capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1, f"run-tests as a user exited {done.returncode}:\n{done.stdout}{done.stderr}"
+    lines = [line.strip() for line in done.stderr.splitlines() if "sudo apt-get install" in line]
+    assert len(lines) == 1, done.stderr
+    packages = lines[0].split("sudo apt-get install -y ", 1)[1].split()
+    assert {"chromium", "chromium-driver", "iproute2", "indi-bin"} <= set(packages), packages
+    assert not {"debootstrap", "podman"} & set(packages), "root-only test tools asked of a user"
+    shown = run(chroot_command(root, ["apt-cache", "show", "--no-all-versions", *packages]), 120, "apt-cache show")
+    assert shown.stdout.count("\nPackage: ") + shown.stdout.startswith("Package: ") >= len(packages)
+    return packages
