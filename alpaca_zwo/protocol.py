@@ -710,6 +710,15 @@ class Request:
         raise ProtocolError(f"unexpected reply {reply!r} to {self.text}")
 
 
+def flag_reply(command: Command, value: bool) -> str:
+    """A yes/no answer framed as ``command``'s reply kind says: a setter's bare ``1``/``0``, a query's ``1#``/``0#``."""
+    if command.kind is ReplyKind.CHAR:
+        return char_reply(value)
+    if command.kind is ReplyKind.TEXT:
+        return char_reply(value) + "#"
+    raise ProtocolError(f":{command.code}# has no yes/no reply (its replies are {command.kind.value})")
+
+
 def request(code: str, argument: str = "") -> Request:
     """A request for ``code`` with ``argument`` (checked against the table, so typos fail early)."""
     command = BY_CODE[code]

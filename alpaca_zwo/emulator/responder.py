@@ -1,9 +1,11 @@
 """Request text -> reply text, with the exact framing of a real ZWO AM mount.
 
-The responder is the only place that knows the wire format on the emulator side; the model deals
-in numbers and codes. Framing rules (field notes §2-§4): setters answer one bare ``1``/``0`` with
-no ``#``; a successful GOTO a bare ``0``; errors ``eN#``; queries and ``N/A#`` end in ``#``;
-motion commands and unknown commands get no reply at all. Firmware-variant switches that change
+The model deals in numbers and codes; the reply forms come from ``protocol.py`` (its command
+table's reply kinds and its formatters), the same ones the driver reads replies with. Framing rules
+(field notes §2-§4): setters answer one bare ``1``/``0`` with no ``#`` (a handler answers True or
+False and ``protocol.flag_reply`` frames it by the command's kind); a successful GOTO a bare
+``0``; errors ``eN#``; queries and ``N/A#`` end in ``#``; motion commands and unknown commands
+get no reply at all. Firmware-variant switches that change
 framing (``:hP#``, ``:Gps#``, ``:Gh#``, ``:STR#``, ``:SMeq#``/``:SMMC#``) are applied here.
 """
 
@@ -17,7 +19,6 @@ from .._exceptions import ProtocolError
 from ..firmware import has_feature
 from ..protocol import (
     MountMode,
-    char_reply,
     error_reply,
     format_azimuth,
     format_date,
@@ -44,7 +45,10 @@ __all__ = ["Responder"]
 
 _log = logging.getLogger(__name__)
 
-Handler = Callable[[str, bool], "str | None"]
+#: A handler's answer: reply text, None for silence, or a yes/no that ``protocol.flag_reply`` frames
+#: as the command's reply kind says (a setter's bare ``1``/``0``, a query's ``1#``/``0#``).
+Handler = Callable[[str, bool], "str | bool | None"]
+
 
 def _gt_digit(rate_name: str, mapping: str) -> str:
     """The model's rate name ("custom" for an :STR rate) as this firmware's :GT# digit."""
@@ -78,7 +82,8 @@ class Responder:
         if match is None:
             return None  # unknown or miscased: a real mount stays silent
         try:
-            return self._handlers[match.command.code](match.argument, match.well_formed)
+            reply = self._handlers[match.command.code](match.argument, match.well_formed)
+            return protocol.flag_reply(match.command, reply) if isinstance(reply, bool) else reply
         except Exception:  # a bug here must not take the line down; the mount just says nothing
             _log.exception("responder failed on :%s#", body)
             return None
@@ -97,8 +102,8 @@ class Responder:
             "GL": lambda a, w: format_time(m.local_datetime().time()) + "#",
             "SS": self._set_sidereal,
             "GS": lambda a, w: format_hms(m.sidereal_time()) + "#",
-            "GH": lambda a, w: char_reply(m.dst()) + "#",
-            "SH": lambda a, w: char_reply(w and m.set_dst(a == "1")),
+            "GH": lambda a, w: m.dst(),
+            "SH": lambda a, w: w and m.set_dst(a == "1"),
             "SG": self._set_zone,
             "GG": lambda a, w: format_utc_offset(m.utc_offset()) + "#",
             "St": self._set_latitude,
@@ -148,8 +153,8 @@ class Responder:
             "TL": silent(lambda: m.set_tracking_rate("lunar")),
             "GT": lambda a, w: _gt_digit(m.tracking_rate(), m.firmware.gt_mapping) + "#",
             "STR": self._custom_rate,
-            "Te": lambda a, w: char_reply(m.tracking_on()),
-            "Td": lambda a, w: char_reply(m.tracking_off()),
+            "Te": lambda a, w: m.tracking_on(),
+            "Td": lambda a, w: m.tracking_off(),
             "GAT": self._tracking_state,
             # Guiding
             "Mg": self._pulse,
@@ -162,22 +167,22 @@ class Responder:
             # Home, park
             "hC": silent(m.home),
             "Gh": self._homed,
-            "SOa": lambda a, w: char_reply(m.set_current_as_home()),
+            "SOa": lambda a, w: m.set_current_as_home(),
             "hP": self._park,
             "Sp01": lambda a, w: m.set_park_position(),
-            "Spu": lambda a, w: char_reply(m.unpark()),
+            "Spu": lambda a, w: m.unpark(),
             "Gps": self._park_status,
             # Meridian and limits
             "STa": self._meridian_firmware(self._set_meridian),
             "GTa": self._meridian_firmware(lambda a, w: format_meridian(m.meridian()) + "#"),
             "SLE": self._always_one(lambda: m.set_limits_enabled(True)),
             "SLD": self._always_one(lambda: m.set_limits_enabled(False)),
-            "GLC": lambda a, w: char_reply(m.limits_enabled()) + "#",
+            "GLC": lambda a, w: m.limits_enabled(),
             "SLH": self._set_upper_limit,
             "GLH": lambda a, w: f"{m.altitude_limits()[1]}#",
             "SLL": self._set_lower_limit,
             "GLL": lambda a, w: f"{m.altitude_limits()[0]}#",
-            "SRl": lambda a, w: char_reply(w and m.set_max_speed(int(a))),
+            "SRl": lambda a, w: w and m.set_max_speed(int(a)),
             "GRl": lambda a, w: f"{m.max_speed()}#",
             # Mode, buzzer, identity
             "AP": silent(lambda: m.request_mode(MountMode.EQUATORIAL)),
@@ -189,7 +194,7 @@ class Responder:
             "GVP": lambda a, w: m.firmware.model + "#",
             "GVT": lambda a, w: m.firmware.compile_time + "#",
             "GBl": lambda a, w: m.ble_name() + "#",
-            "SBl": lambda a, w: char_reply(w and m.set_ble_suffix(a)),
+            "SBl": lambda a, w: w and m.set_ble_suffix(a),
             "BS": lambda a, w: "OK#" if w and m.ble_pair(a) else "NO#",
         }
         return table
@@ -198,9 +203,9 @@ class Responder:
     def _always_one(action: Callable[[], object]) -> Handler:
         """A setter that cannot fail: act, answer a bare ``1``."""
 
-        def handler(_argument: str, _well_formed: bool) -> str:
+        def handler(_argument: str, _well_formed: bool) -> bool:
             action()
-            return "1"
+            return True
 
         return handler
 
@@ -219,7 +224,7 @@ class Responder:
         """:STa/:GTa exist only from firmware 1.2.4 (field notes §5.6, INDIGO); older builds answer
         nothing, as for any command they do not know (field notes §2.9)."""
 
-        def gated(argument: str, well_formed: bool) -> str | None:
+        def gated(argument: str, well_formed: bool) -> str | bool | None:
             if not has_feature(self.model.firmware.version, "meridian_settings"):
                 return None
             return handler(argument, well_formed)
@@ -233,85 +238,85 @@ class Responder:
 
     # ---------------------------------------------------------------- date, time, site
 
-    def _set_date(self, argument: str, well_formed: bool) -> str:
+    def _set_date(self, argument: str, well_formed: bool) -> bool:
         try:
-            return char_reply(well_formed and self.model.set_date(parse_date(argument)))
+            return well_formed and self.model.set_date(parse_date(argument))
         except ProtocolError:
-            return "0"
+            return False
 
-    def _set_time(self, argument: str, well_formed: bool) -> str:
+    def _set_time(self, argument: str, well_formed: bool) -> bool:
         try:
-            return char_reply(well_formed and self.model.set_time(parse_time(argument)))
+            return well_formed and self.model.set_time(parse_time(argument))
         except ProtocolError:
-            return "0"
+            return False
 
-    def _set_sidereal(self, argument: str, well_formed: bool) -> str:
+    def _set_sidereal(self, argument: str, well_formed: bool) -> str | bool:
         try:
             if well_formed and self.model.set_sidereal_time(parse_hms(argument)):
-                return "1"
+                return True
         except ProtocolError:
             pass
         return error_reply(2)
 
-    def _set_zone(self, argument: str, well_formed: bool) -> str:
+    def _set_zone(self, argument: str, well_formed: bool) -> bool:
         try:
-            return char_reply(well_formed and self.model.set_utc_offset(parse_utc_offset(argument)))
+            return well_formed and self.model.set_utc_offset(parse_utc_offset(argument))
         except ProtocolError:
-            return "0"
+            return False
 
-    def _set_latitude(self, argument: str, well_formed: bool) -> str:
+    def _set_latitude(self, argument: str, well_formed: bool) -> bool:
         try:
-            return char_reply(well_formed and self.model.set_latitude(parse_dms(argument)))
+            return well_formed and self.model.set_latitude(parse_dms(argument))
         except ProtocolError:
-            return "0"
+            return False
 
-    def _set_longitude(self, argument: str, well_formed: bool) -> str:
+    def _set_longitude(self, argument: str, well_formed: bool) -> bool:
         try:
-            return char_reply(well_formed and self.model.set_longitude(parse_longitude(argument)))
+            return well_formed and self.model.set_longitude(parse_longitude(argument))
         except ProtocolError:
-            return "0"
+            return False
 
-    def _set_date_time_zone(self, argument: str, well_formed: bool) -> str:
+    def _set_date_time_zone(self, argument: str, well_formed: bool) -> bool:
         if not well_formed:
-            return "0"
+            return False
         try:
             day_text, time_text, zone_text = argument.split("&")
             day, clock, offset = parse_date(day_text), parse_time(time_text), parse_utc_offset(zone_text)
         except (ProtocolError, ValueError):
-            return "0"
-        return char_reply(self.model.set_date_time_zone(day, clock, offset))
+            return False
+        return self.model.set_date_time_zone(day, clock, offset)
 
     def _get_date_time_zone(self, _argument: str, _well_formed: bool) -> str:
         local = self.model.local_datetime()
         zone = format_utc_offset(self.model.utc_offset())
         return f"{format_date(local.date())}&{format_time(local.time())}&{zone}#"
 
-    def _set_site(self, argument: str, well_formed: bool) -> str:
+    def _set_site(self, argument: str, well_formed: bool) -> bool:
         if not well_formed:
-            return "0"
+            return False
         try:
             lat_text, lon_text = argument.split("&")
             latitude, longitude = parse_dms(lat_text), parse_longitude(lon_text)
         except (ProtocolError, ValueError):
-            return "0"
+            return False
         if not (-90.0 <= latitude <= 90.0 and -180.0 <= longitude <= 180.0):
-            return "0"
-        return char_reply(self.model.set_latitude(latitude) and self.model.set_longitude(longitude))
+            return False
+        return self.model.set_latitude(latitude) and self.model.set_longitude(longitude)
 
     # ---------------------------------------------------------------- position and target
 
-    def _set_target_ra(self, argument: str, well_formed: bool) -> str:
+    def _set_target_ra(self, argument: str, well_formed: bool) -> str | bool:
         try:
             if well_formed and self.model.set_target_ra(parse_hms(argument)):
-                return "1"
+                return True
         except ProtocolError:
             pass
         return error_reply(2)  # seconds or minutes of 60, or a bad format (PYAM5)
 
-    def _set_target_dec(self, argument: str, well_formed: bool) -> str:
+    def _set_target_dec(self, argument: str, well_formed: bool) -> str | bool:
         try:
             if well_formed and self.model.set_target_dec(parse_dms(argument)):
-                return "1"
+                return True
         except ProtocolError:
             pass
         return error_reply(2)
@@ -356,10 +361,10 @@ class Responder:
 
     # ---------------------------------------------------------------- tracking, guiding
 
-    def _custom_rate(self, argument: str, well_formed: bool) -> str | None:
+    def _custom_rate(self, argument: str, well_formed: bool) -> bool | None:
         if not self.model.firmware.custom_tracking:
             return None  # not a command on real firmware: silence
-        return char_reply(well_formed and self.model.set_custom_rate(int(argument) / 10.0))
+        return well_formed and self.model.set_custom_rate(int(argument) / 10.0)
 
     def _tracking_state(self, _argument: str, _well_formed: bool) -> str:
         return protocol.format_tracking_state(*self.model.tracking_state())
@@ -393,13 +398,13 @@ class Responder:
             return error_reply(code)
         return self._get_position("", True)  # V1.1: the synced RA&Dec
 
-    def _homed(self, _argument: str, _well_formed: bool) -> str:
+    def _homed(self, _argument: str, _well_formed: bool) -> str | bool:
         variant = self.model.firmware.gh_reply
         if variant == "empty":
             return "#"
         if variant == "zero":
             return "0#"
-        return char_reply(self.model.homed()) + "#"
+        return self.model.homed()
 
     def _park(self, _argument: str, _well_formed: bool) -> str | None:
         accepted = self.model.park()
@@ -413,18 +418,18 @@ class Responder:
 
     # ---------------------------------------------------------------- meridian and limits
 
-    def _set_meridian(self, argument: str, well_formed: bool) -> str:
+    def _set_meridian(self, argument: str, well_formed: bool) -> bool:
         if not well_formed:
-            return "0"
+            return False
         try:
-            return char_reply(self.model.set_meridian(parse_meridian(argument)))
+            return self.model.set_meridian(parse_meridian(argument))
         except ProtocolError:
-            return "0"
+            return False
 
-    def _set_upper_limit(self, argument: str, _well_formed: bool) -> str:
+    def _set_upper_limit(self, argument: str, _well_formed: bool) -> bool:
         value = _two_digits(argument)
-        return char_reply(value is not None and self.model.set_upper_limit(value))
+        return value is not None and self.model.set_upper_limit(value)
 
-    def _set_lower_limit(self, argument: str, _well_formed: bool) -> str:
+    def _set_lower_limit(self, argument: str, _well_formed: bool) -> bool:
         value = _two_digits(argument)
-        return char_reply(value is not None and self.model.set_lower_limit(value))
+        return value is not None and self.model.set_lower_limit(value)
