@@ -32,6 +32,7 @@ from .procs import (
     Emulator,
     Proc,
     cycle_aligned,
+    emulator_log_exchanges,
     emulator_log_times,
     free_cpus,
     start_alpaca_zwo,
@@ -65,6 +66,7 @@ class Plan:
     server_threads: int | None = None  # None: the server's configured default
     server_patch: str = ""  # candidate server changes (benchmarks.patched_server), "" = the server as is
     peer: bool = True  # also run every HTTP test against the peer
+    abort_phd2: bool = False  # stop-latency rounds with a PHD2-like guider beside the 50 pollers
 
     @classmethod
     def make(cls, args: argparse.Namespace) -> Plan:
@@ -83,7 +85,8 @@ class Plan:
             pairs = (item.partition(":") for item in args.phases.split(","))
             phases = tuple((state, int(count)) for state, _, count in pairs)
             plan = replace(plan, serial_phases=phases)
-        return replace(plan, server_threads=args.server_threads, peer=not args.no_peer, server_patch=args.server_patch)
+        return replace(plan, server_threads=args.server_threads, peer=not args.no_peer, server_patch=args.server_patch,
+                       abort_phd2=args.abort_phd2, abort_n=args.abort_n or plan.abort_n)
 
 
 def http_specs(test: str, plan: Plan) -> tuple[list[ClientSpec], float]:
@@ -183,17 +186,21 @@ class Bench:
         server = start_alpaca_zwo(self.run_dir, self.emulator.proc.ports["tcp"], self.server_cpus,
                                   threads=self.plan.server_threads, patches=self.plan.server_patch)
         self.procs.append(server)
-        peer = start_peer(self.run_dir, self.server_cpus)
-        self.procs.append(peer)
-        self.ours, self.peer = Target("alpaca-zwo", server), Target("alpaca-simulators", peer)
+        self.ours = Target("alpaca-zwo", server)
         self.log(f"emulator pid {self.emulator.proc.pid} tcp {self.emulator.proc.ports['tcp']}, alpaca-zwo pid "
-                 f"{server.pid} port {server.port}, peer pid {peer.pid} port {peer.port}")
+                 f"{server.pid} port {server.port}")
+        if self.plan.peer:  # --no-peer: the peer is not even started (it need not be installed)
+            peer = start_peer(self.run_dir, self.server_cpus)
+            self.procs.append(peer)
+            self.peer = Target("alpaca-simulators", peer)
+            self.log(f"peer pid {peer.pid} port {peer.port}")
         self.pool = WorkerPool(self.plan.workers, self.gen_cpus)
         # The anchor client keeps the mount connected for the whole run, as an imaging app would.
         self.ours.client.put("connected", Connected="true")
-        self.peer.client.put("connected", Connected="true")
-        self.peer.client.put("unpark")  # the peer starts parked; a real mount here is tracking
-        self.peer.client.put("tracking", Tracking="true")
+        if self.peer is not None:
+            self.peer.client.put("connected", Connected="true")
+            self.peer.client.put("unpark")  # the peer starts parked; a real mount here is tracking
+            self.peer.client.put("tracking", Tracking="true")
         # Start tracking on a real target: a GOTO turns tracking on at arrival (the mount's rule).
         ra, dec = self.ours.targets()[0]
         self.ours.client.put("slewtocoordinatesasync", RightAscension=round(ra, 6), Declination=dec)
@@ -334,7 +341,7 @@ class Bench:
         return row
 
     def http_tests(self) -> None:
-        assert self.ours is not None and self.peer is not None
+        assert self.ours is not None
         targets = (self.ours, self.peer) if self.plan.peer else (self.ours,)
         for test in self.plan.http_tests:
             for target in targets:
@@ -361,19 +368,26 @@ class Bench:
     # -- abort / stop latency -------------------------------------------------------------------
 
     def abort_tests(self) -> None:
-        assert self.ours is not None and self.peer is not None
-        for target in (self.ours, self.peer) if self.plan.peer else (self.ours,):
+        assert self.ours is not None
+        for target in (self.ours, self.peer) if self.peer is not None else (self.ours,):
             for kind in ("abortslew", "moveaxis0"):
                 self.results["abort"].append(self.abort_test(target, kind))
 
     def abort_test(self, target: Target, kind: str) -> dict[str, Any]:
-        """``n`` stops, each during a motion started 0.3-0.9 s earlier, while 50 NINA pollers run."""
+        """``n`` stops, each during a motion started 0.3-0.9 s earlier, while 50 NINA pollers run
+        (and, with ``--abort-phd2``, a PHD2-like guider pulsing whenever the mount is not slewing)."""
         assert self.pool is not None and self.emulator is not None
         # The peer has no mount line, so its number is HTTP only: fewer rounds say enough.
         n = self.plan.abort_n if target is self.ours else max(5, self.plan.abort_n // 3)
-        budget = n * 2.5 + 10.0
+        # Slewing now stays true until the mount has braked to rest, so a round takes longer.
+        budget = n * 4.0 + 10.0
         stop_file = self.run_dir / f"stop-{target.proc.name}-{kind}"
-        running = self.pool.start("127.0.0.1", target.proc.port, [ClientSpec("nina", 50)], warmup=self.plan.warmup_s,
+        specs = [ClientSpec("nina", 50)]
+        if self.plan.abort_phd2:
+            # Real PHD2 stops guiding while Slewing is true; the server refuses pulses during a GOTO
+            # or MoveAxis (0x40B) anyway, so pulses run between the orchestrator's motions.
+            specs.append(ClientSpec("phd2", 1, options={"client_id": 1, "allow_slewing": True, "exposure": 1.0}))
+        running = self.pool.start("127.0.0.1", target.proc.port, specs, warmup=self.plan.warmup_s,
                                   duration=budget, seed=7, stop_file=str(stop_file))
         _sleep_until(running.measure_from)
         rng = random.Random(42)
@@ -411,6 +425,7 @@ class Bench:
         result = running.wait()
         window = result["window"][1] - result["window"][0]
         pollers = summarise(result["labels"]["nina"], window) if "nina" in result["labels"] else {}
+        guider = summarise(result["labels"]["phd2"], window) if "phd2" in result["labels"] else {}
         if ours:
             commands = {"Q"} if kind == "abortslew" else {"Qe", "Qw"}
             stamps = [t for t, _ in emulator_log_times(self.emulator.proc.stderr, commands)]
@@ -434,6 +449,8 @@ class Bench:
             "http_p99_ms": _r(percentile(http, 99)),
             "http_max_ms": _r(max(http) if http else None),
             "pollers": {k: pollers.get(k) for k in ("ok", "errors", "p50_ms", "p99_ms", "max_ms")},
+            "phd2": {k: guider.get(k) for k in ("ok", "errors", "p50_ms", "p99_ms", "max_ms", "error_samples")},
+            "pulses_on_wire": self._pulses_on_wire(samples),
         }
         if ours:
             wire = [s["wire_ms"] for s in samples if s.get("wire_ms") is not None]
@@ -453,6 +470,15 @@ class Bench:
                     f"{row['wire_max_ms']} ms; link write p50 {row['trace_p50_ms']} p99 {row['trace_p99_ms']} ms"
                     if ours else "") + f"; pollers p99 {pollers.get('p99_ms')} ms errors {pollers.get('errors')}")
         return row
+
+    def _pulses_on_wire(self, samples: list[dict[str, Any]]) -> int:
+        """Guide pulses (``:Mg...#``) the emulator received during the stop rounds."""
+        assert self.emulator is not None
+        if not samples:
+            return 0
+        start, end = samples[0]["sent"] - 1.0, samples[-1]["sent"] + 1.0
+        return sum(1 for t, body, _, _ in emulator_log_exchanges(self.emulator.proc.stderr, start, end)
+                   if body.startswith("Mg"))
 
     def _trace_latency(self, target: Target, sent: float, requests: set[str]) -> float | None:
         """When the link began writing the stop, from the server's own serial trace (setup API)."""
@@ -578,7 +604,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--server-patch", default="", metavar="P[,P]",
                         help="run alpaca-zwo with candidate changes applied: urgent-stop, fixed-rate-poll, "
                              "connection-limit (see benchmarks/patched_server.py)")
-    parser.add_argument("--no-peer", action="store_true", help="skip the peer (for sweeps of our own settings)")
+    parser.add_argument("--no-peer", action="store_true",
+                        help="do not start the peer at all (for sweeps of our own settings)")
+    parser.add_argument("--abort-phd2", action="store_true",
+                        help="stop-latency rounds with a PHD2-like guider pulsing beside the 50 pollers (issue 13)")
+    parser.add_argument("--abort-n", type=int, default=0, help="stops per kind (default: 100, quick mode 6)")
     parser.add_argument("--note", default="", help="free text stored with the results (machine conditions)")
     args = parser.parse_args(argv)
     plan = Plan.make(args)
