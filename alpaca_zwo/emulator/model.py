@@ -24,9 +24,10 @@ The class is assembled from parts, one module each, sharing the state ``state.Mo
 declares: ``physics.Mechanics`` (axis integration), ``clocksite.ClockAndSite`` (the mount's clock
 and site) and ``flash.FlashSettings`` (settings kept in flash); this module has the commands.
 
-Not modelled (documented in the report): alt-az physics (``:AA#`` only changes the reported
-mode), southern-hemisphere homes (home is always the north celestial pole), refraction,
-encoder/periodic errors, ST-4 guiding and the meaning of the ``:GU#`` digits.
+In alt-az mode (``:AA#``, in effect after a power cycle) the same axes are azimuth and altitude;
+``altaz`` says what moves how. Not modelled (see the README): southern-hemisphere homes (home
+is always the north celestial pole), refraction, encoder/periodic errors, ST-4 guiding and the
+meaning of the ``:GU#`` digits.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from .. import sky
 from ..firmware import FirmwareVariant
 from ..protocol import SLEW_SPEEDS, MountMode, MountStatus
 from ..sky import SIDEREAL_DEG_S
+from .altaz import AltAzSlew
 from .clock import Clock
 from .clocksite import ClockAndSite
 from .faults import FaultEvent, Faults
@@ -92,14 +94,16 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
         initialized: bool = False,
         faults: Faults | None = None,
         accel: float = ACCEL_DEG_S2,
+        mode: MountMode = MountMode.EQUATORIAL,
     ) -> None:
         """``site`` is the (latitude, east longitude) stored in the mount, returned after every
-        power-up; ``initialized`` starts as if a client had already set date, time and site."""
+        power-up; ``initialized`` starts as if a client had already set date, time and site;
+        ``mode`` is the mount mode in flash (as if ``:AA#``/``:AP#`` and a restart had happened)."""
         self._lock = threading.RLock()
         self._clock = clock
         self.firmware = firmware if firmware is not None else FirmwareVariant()
         self._accel = accel
-        self._persist = Persistent()
+        self._persist = Persistent(mode=mode)
         if site is not None:
             self._persist.latitude, self._persist.longitude = float(site[0]), float(site[1])
         self.faults = faults if faults is not None else Faults()
@@ -244,6 +248,9 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
             raw_ra = sky.wrap_hours_24(self._target_ra - self._offset_ra)
             raw_dec = max(-90.0, min(90.0, self._target_dec - self._offset_dec))
             raw_ha = sky.hour_angle(lst, raw_ra)
+            if self._altaz():
+                self._start_slew(self._altaz_goto(raw_ha, raw_dec))
+                return 0
             side = sky.goto_pier_side(raw_ha, self._side(), self._goto_limit_deg())
             if side is sky.PierSide.EAST:
                 p, s = (raw_ha - 12.0) * 15.0, 180.0 - raw_dec
@@ -251,6 +258,13 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
                 p, s = raw_ha * 15.0, raw_dec
             self._start_slew(Slew("goto", self._t, p, SIDEREAL_DEG_S, s, side))
             return 0
+
+    def _altaz_goto(self, raw_ha: float, raw_dec: float) -> AltAzSlew:
+        """An alt-az GOTO: no pier side; the azimuth axis takes the short way round."""
+        _, az = sky.equatorial_to_horizontal(raw_ha, raw_dec, self._latitude)
+        az_ref = self._pos[RA] + ((az - self._pos[RA] + 180.0) % 360.0 - 180.0)
+        return AltAzSlew("goto", self._t, raw_ha * 15.0, SIDEREAL_DEG_S, raw_dec, sky.PierSide.WEST,
+                         latitude=self._latitude, az_ref=az_ref)
 
     def _start_slew(self, slew: Slew) -> None:
         self._slew = slew
@@ -353,7 +367,10 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
                 self._axis_speed[axis] = multiple
 
     def _dec_sign(self) -> float:
-        """+1 when raising the secondary angle raises Dec (west side), -1 through the pole."""
+        """+1 when raising the secondary angle raises Dec (west side), -1 through the pole; in alt-az
+        mode moves are sky motions (the alt-az controller turns them into axis motions), so +1."""
+        if self._altaz():
+            return 1.0
         return 1.0 if self._side() is sky.PierSide.WEST else -1.0
 
     def move(self, direction: str) -> bool:
@@ -395,6 +412,10 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
                 self._pulses[axis] = None
                 return True
             rate = self._persist.guide_rate * SIDEREAL_DEG_S
+            if self._altaz():
+                # Accepted and timed, but no measurable movement in alt-az (field notes §2.5, PT).
+                self._pulses[axis] = Pulse(0.0, self._t + milliseconds / 1000.0)
+                return True
             if direction == "e":
                 velocity = -rate
             elif direction == "w":
@@ -450,6 +471,11 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
             self._advance()
             if self._persist.parked or self._track_error == 8:
                 return False
+            refusal = self._altaz_tracking_refusal()
+            if refusal is not None:
+                if refusal != 7:  # 7 is read from the clock and site themselves (tracking_state)
+                    self._track_error = refusal
+                return False
             if self._raw_altitude() < 0.0:
                 self._track_error = 5
                 return False
@@ -457,6 +483,17 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
             self._track_error = None
             self._home_flag = False
             return True
+
+    def _altaz_tracking_refusal(self) -> int | None:
+        """Why alt-az tracking cannot start: 7 time and site not set (field notes §2.4, §4.1), 10 the
+        altitude carried over the zenith; None in EQ mode or when it can."""
+        if not self._altaz():
+            return None
+        if not self._initialized():
+            return 7
+        if self._pos[DEC] > 90.0 + 1e-9:
+            return 10
+        return None
 
     def tracking_off(self) -> bool:
         """``:Td#``: refused while a GOTO, home or park slew runs (ZWO v2.1)."""
@@ -473,7 +510,11 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
         """(on, reason code when it stopped by itself) for ``:GAT#``."""
         with self._lock:
             self._advance()
-            return self._tracking, None if self._tracking else self._track_error
+            if self._tracking:
+                return True, None
+            if self._track_error is None and self._altaz() and not self._initialized():
+                return False, 7  # alt-az tracking needs time and site: e7# until they are set
+            return False, self._track_error
 
     # ---------------------------------------------------------------- sync
 
@@ -484,11 +525,11 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
             if self._slew is not None:
                 return 4
             ra, dec = self._reported()
-            if self._at_home_position() or abs(dec) > SYNC_POLE_DEG:
+            if self._at_home_position() or (abs(dec) > SYNC_POLE_DEG and not self._altaz()):
                 return 11
             ha = sky.hour_angle(self._lst(), self._target_ra)
-            if sky.pointing_state(ha) is not self._side():
-                return 9
+            if not self._altaz() and sky.pointing_state(ha) is not self._side():
+                return 9  # an alt-az mount has no meridian side
             if sky.angular_separation(ra, dec, self._target_ra, self._target_dec) > SYNC_MAX_DEG:
                 return 12
             self._offset_ra = sky.wrap_hours_12(self._offset_ra + self._target_ra - ra)

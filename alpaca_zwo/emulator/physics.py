@@ -10,7 +10,9 @@ from __future__ import annotations
 import math
 
 from .. import sky
+from ..protocol import MountMode
 from ..sky import LUNAR_DEG_S, SIDEREAL_DEG_S, SOLAR_DEG_S
+from .altaz import axes_to_ha_dec_altaz, follow_sky
 from .state import (
     AT_HOME_DEG,
     DEC,
@@ -59,9 +61,12 @@ class Mechanics(ModelBase):
             and self._pulses == [None, None]
         )
 
+    def _altaz(self) -> bool:
+        return self._mode is MountMode.ALTAZ
+
     def _until_meridian(self, dt: float) -> float:
         """Shorten a steady tracking step so the meridian stop happens where it should."""
-        if not self._tracking:
+        if not self._tracking or self._altaz():  # an alt-az mount has no meridian limit
             return dt
         v = self._vel[RA]
         p = self._pos[RA]
@@ -73,6 +78,11 @@ class Mechanics(ModelBase):
     def _step(self, dt: float) -> None:
         if self._slew is not None:
             self._slew_step(dt)
+        elif self._altaz():
+            # The sky motion EQ mode gives the axes directly, turned into azimuth/altitude motion;
+            # guide pulses move nothing in alt-az (field notes §2.5, PT).
+            v_ha, v_dec = self._commanded(RA, pulses=False), self._commanded(DEC, pulses=False)
+            follow_sky(self._pos, self._vel, v_ha, v_dec, self._latitude, self._accel, dt)
         else:
             for axis in (RA, DEC):
                 self._pos[axis], self._vel[axis] = ramp(
@@ -88,7 +98,7 @@ class Mechanics(ModelBase):
         vmax = self._persist.max_speed * SIDEREAL_DEG_S
         t = self._t
         for axis in (RA, DEC):
-            vt = slew.velocity(axis)
+            vt = slew.velocity(axis, t)
             if slew.done[axis]:
                 self._pos[axis] = slew.target(axis, t + dt)
                 self._vel[axis] = vt
@@ -121,10 +131,11 @@ class Mechanics(ModelBase):
                 self._homed = True
                 self._home_flag = True
 
-    def _commanded(self, axis: int) -> float:
-        """Steady velocity an axis is driven at outside slews (mechanical deg/s)."""
+    def _commanded(self, axis: int, pulses: bool = True) -> float:
+        """Steady velocity an axis is driven at outside slews (mechanical deg/s; in alt-az mode the
+        hour-angle and Dec speeds the pointing is to move at)."""
         move = self._moves[axis]
-        pulse = self._pulses[axis]
+        pulse = self._pulses[axis] if pulses else None
         extra = (move or 0.0) + (pulse.velocity if pulse is not None else 0.0)
         if axis == DEC:
             return extra
@@ -144,6 +155,14 @@ class Mechanics(ModelBase):
         }[self._track_rate]
 
     def _check_tracking_limits(self) -> None:
+        if self._altaz():
+            if self._pos[DEC] > 90.0 + 1e-9:  # carried over the zenith: "altitude inverted"
+                self._tracking = False
+                self._track_error = 10
+            elif self._raw_altitude() < 0.0:
+                self._tracking = False
+                self._track_error = 5
+            return
         if self._pos[RA] > self._meridian_stop_deg():
             self._tracking = False
             self._track_error = 8
@@ -190,6 +209,8 @@ class Mechanics(ModelBase):
         )
 
     def _raw_ha_dec(self) -> tuple[float, float]:
+        if self._altaz():
+            return axes_to_ha_dec_altaz(self._pos[RA], self._pos[DEC], self._latitude)
         return axes_to_ha_dec(self._pos[RA], self._pos[DEC])
 
     def _raw_altitude(self) -> float:

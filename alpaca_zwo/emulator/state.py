@@ -87,7 +87,8 @@ class Slew:
     def target(self, axis: int, t: float) -> float:
         return self.p0 + self.p_rate * (t - self.t0) if axis == RA else self.s
 
-    def velocity(self, axis: int) -> float:
+    def velocity(self, axis: int, t: float = 0.0) -> float:
+        """The target's speed on ``axis`` at ``t`` (constant here; an alt-az target's is not)."""
         return self.p_rate if axis == RA else 0.0
 
 

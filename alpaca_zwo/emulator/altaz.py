@@ -1,0 +1,106 @@
+"""Alt-az mode: the same two mechanical axes, stood upright, as azimuth and altitude.
+
+After ``:AA#`` and a restart (field notes §2.8, §5.3) the primary axis is vertical: its angle is the
+azimuth (from north through east) and the secondary angle is the altitude. The mechanical zero is
+unchanged, so home (secondary 90°) points at the zenith. A secondary angle past 90° is the OTA
+carried over the zenith: the altitude is "inverted" (the mount's ``e10``, field notes §4.1), and the
+pointing is azimuth + 180°, altitude 180° - s.
+
+How the mount moves in this mode (the field notes say nothing more, so this is the assumption):
+
+- A GOTO chases the target's azimuth and altitude, both moving as the sky turns, with the same
+  acceleration, top speed and braking-curve controller as an equatorial GOTO; it always ends with
+  the altitude upright and takes the short way round in azimuth.
+- Tracking and manual moves keep the equatorial meaning they have in EQ mode (tracking holds RA/Dec;
+  ``:Me/:Mw/:Mn/:Ms#`` move relative to the sky): each step the controller turns the wanted
+  hour-angle/Dec motion into the axis positions for the end of the step and drives each axis there,
+  within its acceleration. Near the zenith the azimuth cannot keep up (the keyhole); the controller
+  then takes whichever axis solution is closer, which can carry the altitude over the top: tracking
+  stops with ``e10``.
+- Guide pulses are accepted but move nothing (PT: 200-2000 ms pulses gave no measurable movement in
+  alt-az mode, field notes §2.5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .. import sky
+from .state import DEC, RA, Slew, ramp
+
+#: Half-width of the time window used to differentiate a moving alt-az GOTO target.
+_DIFF_S = 0.25
+
+
+def wrap_180(degrees: float) -> float:
+    """``degrees`` folded into [-180, 180)."""
+    return (degrees + 180.0) % 360.0 - 180.0
+
+
+def axes_to_alt_az(p: float, s: float) -> tuple[float, float]:
+    """(altitude, azimuth) the mechanical axes point at; s > 90 is the altitude carried over the top."""
+    if s <= 90.0:
+        return s, sky.wrap_degrees_360(p)
+    return 180.0 - s, sky.wrap_degrees_360(p + 180.0)
+
+
+def axes_to_ha_dec_altaz(p: float, s: float, latitude: float) -> tuple[float, float]:
+    """(HA hours, Dec degrees) of an alt-az mount's axes at ``latitude``."""
+    alt, az = axes_to_alt_az(p, s)
+    return sky.horizontal_to_equatorial(alt, az, latitude)
+
+
+def nearest_axes(alt: float, az: float, p_ref: float, s_ref: float) -> tuple[float, float]:
+    """The mechanical (p, s) for (alt, az) closest to the axes at (p_ref, s_ref): upright or over the top."""
+    upright = (p_ref + wrap_180(az - p_ref), alt)
+    over = (p_ref + wrap_180(az + 180.0 - p_ref), 180.0 - alt)
+
+    def distance(axes: tuple[float, float]) -> float:
+        return math.hypot(axes[0] - p_ref, axes[1] - s_ref)
+
+    return upright if distance(upright) <= distance(over) else over
+
+
+@dataclass
+class AltAzSlew(Slew):
+    """A GOTO in alt-az mode: ``p0``/``p_rate``/``s`` describe the target's hour angle (degrees) and
+    Dec as for an equatorial GOTO; the axis targets are that point's azimuth and altitude."""
+
+    latitude: float = 0.0
+    az_ref: float = 0.0  # the unwrapped azimuth-axis angle the target starts at (keeps it continuous)
+
+    def _alt_az(self, t: float) -> tuple[float, float]:
+        ha_deg = self.p0 + self.p_rate * (t - self.t0)
+        alt, az = sky.equatorial_to_horizontal(ha_deg / 15.0, self.s, self.latitude)
+        return alt, self.az_ref + wrap_180(az - self.az_ref)
+
+    def target(self, axis: int, t: float) -> float:
+        alt, az = self._alt_az(t)
+        return az if axis == RA else alt
+
+    def velocity(self, axis: int, t: float = 0.0) -> float:
+        return (self.target(axis, t + _DIFF_S) - self.target(axis, t - _DIFF_S)) / (2.0 * _DIFF_S)
+
+
+def follow_sky(
+    pos: list[float], vel: list[float], v_ha_deg: float, v_dec: float, latitude: float, accel: float, dt: float
+) -> None:
+    """One step of tracking/moves in alt-az: drive both axes (in place) toward where the pointing,
+    moved by (``v_ha_deg``, ``v_dec``) deg/s in hour angle and Dec, will be after ``dt``."""
+    ha, dec = axes_to_ha_dec_altaz(pos[RA], pos[DEC], latitude)
+    ha_deg, dec = ha * 15.0 + v_ha_deg * dt, dec + v_dec * dt
+    if dec > 90.0:  # a move carried past the pole: same point, HA turned by 12 h
+        ha_deg, dec = ha_deg + 180.0, 180.0 - dec
+    elif dec < -90.0:
+        ha_deg, dec = ha_deg + 180.0, -180.0 - dec
+    alt, az = sky.equatorial_to_horizontal(ha_deg / 15.0, dec, latitude)
+    goal = nearest_axes(alt, az, pos[RA], pos[DEC])
+    wanted = [(goal[axis] - pos[axis]) / dt for axis in (RA, DEC)]
+    # Coordinated: when one axis cannot reach its speed within the step, both change speed in the
+    # same proportion, so a move starts and stops along its sky path instead of curving off it.
+    change = max(abs(wanted[RA] - vel[RA]), abs(wanted[DEC] - vel[DEC]))
+    scale = min(1.0, accel * dt / change) if change > 0.0 else 1.0
+    for axis in (RA, DEC):
+        goal_speed = vel[axis] + (wanted[axis] - vel[axis]) * scale
+        pos[axis], vel[axis] = ramp(pos[axis], vel[axis], goal_speed, accel, dt)
