@@ -49,6 +49,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="run the built-in emulator's clock F times faster")
     parser.add_argument("--emulator-baud", type=int, metavar="N",
                         help="pace the built-in emulator like an N-baud line (0 = unpaced)")
+    parser.add_argument("--emulator-mode", choices=("eq", "altaz"),
+                        help="start the built-in emulator in equatorial or alt-az mode (default from the config "
+                             "file: eq)")
     parser.add_argument("--zwo-port", type=int, metavar="N",
                         help="serve the mount's own ZWO protocol on TCP port N for INDI and other ZWO/LX200 "
                              "drivers (like the mount's WiFi port 4030), shared with Alpaca; for this run only")
@@ -145,7 +148,8 @@ def server_main(argv: list[str] | None = None) -> int:
     _configure_logging(args.log_level or settings.logging.level, settings.logging.file)
     overrides = Overrides(host=args.host, port=args.port, discovery_port=args.discovery_port,
                           device_url=args.device, mdns=args.mdns, emulator_speed=args.emulator_speed,
-                          emulator_baud=args.emulator_baud, stellarium_port=args.stellarium_port,
+                          emulator_baud=args.emulator_baud, emulator_mode=args.emulator_mode,
+                          stellarium_port=args.stellarium_port,
                           zwo_port=args.zwo_port)
     from .web import setup_routes
 

@@ -293,6 +293,9 @@ class EmulatorSettings:
     #: The version ``:GV#`` reports and the model; empty: the preset's own.
     firmware: str = _setting("", _str(pattern=r"\d+\.\d+\.\d+", hint="like '1.9.0'"))
     model: str = _setting("", _choice("", *MODELS))
+    #: The mount mode stored in the emulated mount's flash at start: "eq" (German equatorial) or
+    #: "altaz" (as if :AA# had been sent and the mount restarted), to run the whole server in alt-az.
+    mode: str = _setting("eq", _choice("eq", "altaz"))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -30,6 +30,7 @@ from ..firmware import (
     FirmwareVariant,
     preset,
 )
+from ..protocol import MountMode
 from .clock import ScaledClock
 from .control import ControlServer
 from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, MountModel
@@ -88,6 +89,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sky.add_argument(
         "--initialized", action="store_true", help="start as if a client had already set date, time (UTC) and site"
+    )
+    sky.add_argument(
+        "--mode", choices=("eq", "altaz"), default="eq",
+        help="mount mode in flash at start: eq, or altaz (as if :AA# had been sent and the mount restarted)",
     )
 
     fw = parser.add_argument_group("firmware variant (a preset; the options below override its switches)")
@@ -166,7 +171,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     clock = ScaledClock(speed=args.speed, start_utc=args.start_time)
-    model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized)
+    mode = MountMode.ALTAZ if args.mode == "altaz" else MountMode.EQUATORIAL
+    model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized, mode=mode)
     server = EmulatorServer(model, host=args.host, port=args.port, baud=args.baud, pty=args.pty, pty_link=args.pty_link)
     try:
         server.start()
