@@ -127,13 +127,14 @@ class PositionEstimator:
     anchor_dec: float | None = None
     anchor_time: float = 0.0
     ra_rate: float = 0.0
+    dec_rate: float = 0.0  # degrees/s: a declination rate offset
     pending: list[tuple[float, float, float, float]] = field(default_factory=list)  # start, end, dra/s, ddec/s
 
     def predict(self, now: float) -> tuple[float, float] | None:
         if self.anchor_ra is None or self.anchor_dec is None:
             return None
         ra = self.anchor_ra + self.ra_rate * (now - self.anchor_time)
-        dec = self.anchor_dec
+        dec = self.anchor_dec + self.dec_rate * (now - self.anchor_time)
         for start, end, dra, ddec in self.pending:
             span = max(0.0, min(now, end) - max(start, self.anchor_time))
             ra += dra * span
@@ -154,6 +155,10 @@ class PositionEstimator:
     def set_ra_rate(self, ra_rate: float, now: float) -> None:
         self._rebase(now)
         self.ra_rate = ra_rate
+
+    def set_dec_rate(self, dec_rate: float, now: float) -> None:
+        self._rebase(now)
+        self.dec_rate = dec_rate
 
     def add_motion(self, start: float, end: float, dra_per_s: float, ddec_per_s: float) -> None:
         # Fold finished motions into the anchor first, so a night of guide pulses keeps at most the
@@ -234,6 +239,8 @@ class Mount:
         self._stop = threading.Event()
         self._poller: threading.Thread | None = None
         self._move_directions: dict[int, Direction] = {}
+        #: Sky rates (deg/s) of the slow moves that carry a tracking rate offset (see drift()).
+        self._drift = [0.0, 0.0]
         #: Added to the host clock when the mount's time is pushed (a client may set UTCDate).
         self.clock_offset = timedelta(0)
         self._goto_target: tuple[float, float] | None = None
@@ -430,6 +437,8 @@ class Mount:
         waiting for the exchange in flight; tracking keeps its setting."""
         self.link.send_urgent(protocol.query("Q"))
         self._move_directions.clear()
+        self._drift = [0.0, 0.0]
+        self._rate_changed()
         with self._estimator_lock:
             self._estimator.invalidate()
         self._changed(moving_axes=frozenset())
@@ -466,6 +475,35 @@ class Mount:
             self._estimator.invalidate()
         self._changed(moving_axes=frozenset(moving))
         self.refresh()
+
+    @property
+    def drift_rates(self) -> tuple[float, float]:
+        """The sky rates (deg/s) of the offset moves now running on axis 0 and 1."""
+        return self._drift[0], self._drift[1]
+
+    def drift(self, axis: int, rate_deg_s: float, guard: Guard | None = None) -> None:
+        """Run (or stop, with 0) a slow move that carries a tracking rate offset too large for guide
+        pulses. Unlike move_axis it is part of tracking, not a slew: moving_axes is left alone and
+        the position estimator carries the motion. The rate is rounded to the mount's 0.01x steps."""
+        if rate_deg_s == 0.0:
+            if self._drift[axis] != 0.0:
+                direction = self._move_directions.pop(axis, None)
+                for d in [direction] if direction else self._axis_directions(axis):
+                    self.link.send_urgent(protocol.stop_direction(d))
+        else:
+            multiple = round(min(abs(rate_deg_s) / SIDEREAL_DEG_S, protocol.SLEW_SPEEDS[-1]), 2)
+            direction = self._axis_directions(axis)[0 if rate_deg_s > 0 else 1]
+            self._exec(protocol.set_variable_speed(multiple))
+            self._exec(protocol.move(direction), guard=guard)
+            self._move_directions[axis] = direction
+            rate_deg_s = (multiple if rate_deg_s > 0 else -multiple) * SIDEREAL_DEG_S
+        self._drift[axis] = rate_deg_s
+        self._rate_changed()
+
+    @staticmethod
+    def _axis_directions(axis: int) -> tuple[Direction, Direction]:
+        """(positive, negative) directions of an axis: east/west for RA, north/south for Dec."""
+        return (Direction.EAST, Direction.WEST) if axis == 0 else (Direction.NORTH, Direction.SOUTH)
 
     def pulse_guide(self, direction: Direction, milliseconds: int, guard: Guard | None = None) -> float:
         """Send one pulse (≤ 3000 ms, the mount's documented range); return its end in mount time.
@@ -655,17 +693,19 @@ class Mount:
             return None
 
     def _ra_drift(self, tracking: TrackingState | None = None) -> float:
-        """RA change in hours per second while nothing else moves the mount."""
+        """RA change in hours per second while nothing else moves the mount (offset moves included)."""
         tracking = tracking if tracking is not None else self._state.tracking
+        offset = self._drift[0] / 15.0  # a move is relative to the sky, tracking or not
         if tracking is None or not tracking.on:
-            return SIDEREAL_HOURS_PER_S
+            return SIDEREAL_HOURS_PER_S + offset
         factor = TRACK_RATE_FACTORS[self._state.tracking_rate]
-        return SIDEREAL_HOURS_PER_S * (1.0 - factor)
+        return SIDEREAL_HOURS_PER_S * (1.0 - factor) + offset
 
     def _rate_changed(self) -> None:
         now = self.monotonic()
         with self._estimator_lock:
             self._estimator.set_ra_rate(self._ra_drift(), now)
+            self._estimator.set_dec_rate(self._drift[1], now)
 
 
 #: Commands that change what a poll reads (position, :GU#, :GAT#, :Gm#); pulses and queries do not.

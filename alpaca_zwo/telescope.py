@@ -38,7 +38,7 @@ from ._exceptions import (
 from .clients import ClientKey, ClientRegistry, current_client
 from .config import DeviceSettings, Settings, horizon_altitude_at
 from .motion import Motion, MotionKind, MotionSupervisor
-from .motion.offsets import MAX_DUTY, guide_speed_arcsec, ra_rate_to_arcsec
+from .motion.offsets import MAX_OFFSET_ARCSEC, ra_rate_to_arcsec
 from .mount import Mount, MountState
 from .protocol import SLEW_SPEEDS, Direction, MeridianSettings, MountMode, TrackRate
 from .sky import SIDEREAL_DEG_S, PierSide
@@ -432,8 +432,8 @@ class Telescope:
             self.mount.set_tracking_rate(DRIVE_RATES[value])
         if DRIVE_RATES[value] is not TrackRate.SIDEREAL:  # offsets exist only on sidereal (Platform 7)
             self._ra_rate = self._dec_rate = 0.0
-            self.motion.offsets.set_rate(0, 0.0)
-            self.motion.offsets.set_rate(1, 0.0)
+            self.motion.set_rate_offset(0, 0.0)
+            self.motion.set_rate_offset(1, 0.0)
 
     def at_park(self) -> bool:
         self._require_connected()
@@ -450,11 +450,23 @@ class Telescope:
         return self.motion.slewing()
 
     def is_pulse_guiding(self) -> bool:
+        if self._altaz_mode():
+            raise MemberNotImplemented("the mount is in alt-az mode, where it cannot pulse guide "
+                                       "(CanPulseGuide is false)")
         self._require_connected()
         return self.motion.pulse_guiding()
 
+    def _altaz_mode(self) -> bool:
+        """Alt-az as the mount's ``:GU#`` last said (``Z``). The mount reads its mode only at power-up,
+        and ``:GU#`` is read again on every poll and at every new link generation, so this follows a
+        mode switch once the mount has been restarted and the link reconnected."""
+        status = self.mount.state.status
+        return status is not None and status.mode is MountMode.ALTAZ
+
     def side_of_pier(self) -> int:
         state = self._state()
+        if self._altaz_mode():
+            return int(PierSide.UNKNOWN)  # an alt-az mount has no pier side (ASCOM pierUnknown)
         if state.pier == "W":
             return int(PierSide.WEST)
         if state.pier == "E":
@@ -467,6 +479,8 @@ class Telescope:
     def destination_side_of_pier(self, right_ascension: float, declination: float) -> int:
         self._check_equatorial(right_ascension, declination)
         self._require_connected()
+        if self._altaz_mode():
+            return int(PierSide.UNKNOWN)  # no pier side to predict in alt-az mode
         ha = sky.hour_angle(self._lst(), right_ascension)
         return int(sky.goto_pier_side(ha, PierSide.UNKNOWN, self._flip_limit_deg()))
 
@@ -477,9 +491,9 @@ class Telescope:
         return limit if limit < 0.0 or meridian.track_after else 0.0
 
     def alignment_mode(self) -> int:
-        state = self._state()
-        if state.status is not None and state.status.mode is MountMode.ALTAZ:
-            return 0
+        self._state()
+        if self._altaz_mode():
+            return 0  # algAltAz, from the Z in :GU#
         return 2  # German polar
 
     def equatorial_system(self) -> int:
@@ -498,7 +512,7 @@ class Telescope:
             ("AtPark", self.motion.parked),
             ("Azimuth", azimuth),
             ("Declination", position[1]),
-            ("IsPulseGuiding", self.motion.pulse_guiding()),
+            *([] if self._altaz_mode() else [("IsPulseGuiding", self.motion.pulse_guiding())]),
             ("RightAscension", position[0]),
             ("SideOfPier", self.side_of_pier()),
             ("SiderealTime", self._lst()),
@@ -523,7 +537,7 @@ class Telescope:
         return True
 
     def can_pulse_guide(self) -> bool:
-        return True
+        return not self._altaz_mode()  # guide pulses move nothing in alt-az (field notes §2.5)
 
     def can_set_guide_rates(self) -> bool:
         return True
@@ -553,10 +567,10 @@ class Telescope:
         return False
 
     def can_set_declination_rate(self) -> bool:
-        return True
+        return not self._altaz_mode()  # offsets are guide pulses, which move nothing in alt-az
 
     def can_set_right_ascension_rate(self) -> bool:
-        return True
+        return not self._altaz_mode()
 
     def can_move_axis(self, axis: int) -> bool:
         if axis not in (0, 1, 2):
@@ -613,15 +627,17 @@ class Telescope:
         return self.mount.state.tracking_rate is TrackRate.SIDEREAL
 
     def _set_rate_offset(self, axis: int, value: float, arcsec_s: float, name: str, unit: str) -> None:
+        if self._altaz_mode():
+            raise MemberNotImplemented(f"{name} cannot be set in alt-az mode: the offsets are guide pulses, which "
+                                       "move nothing there")
         self._require_connected()
         if not self._sidereal():
             raise InvalidOperation(f"{name} can only be set while TrackingRate is sidereal (Platform 7)")
-        largest = MAX_DUTY * guide_speed_arcsec(self.mount.state.guide_rate)
-        if not math.isfinite(arcsec_s) or abs(arcsec_s) > largest:
-            limit = largest if axis == 1 else largest / ra_rate_to_arcsec(1.0)
-            raise InvalidValue(f"{name} {value} is beyond ±{limit:.4f} {unit}: offsets are made of guide pulses "
-                               f"and can be at most {MAX_DUTY:.0%} of the guide rate")
-        self.motion.offsets.set_rate(axis, arcsec_s)
+        if not math.isfinite(arcsec_s) or abs(arcsec_s) > MAX_OFFSET_ARCSEC:
+            limit = MAX_OFFSET_ARCSEC if axis == 1 else MAX_OFFSET_ARCSEC / ra_rate_to_arcsec(1.0)
+            raise InvalidValue(f"{name} {value} is beyond ±{limit:.4f} {unit}, the largest offset this server "
+                               "tracks (a slew is the way to go faster)")
+        self.motion.set_rate_offset(axis, arcsec_s)
 
     # -- guide rates (one mount rate shared by both axes) --------------------------------------
 
@@ -869,6 +885,9 @@ class Telescope:
     # -- guiding -------------------------------------------------------------------------------
 
     def pulse_guide(self, direction: int, duration: int) -> None:
+        if self._altaz_mode():
+            raise MemberNotImplemented("PulseGuide is not available in alt-az mode: guide pulses produce no "
+                                       "measurable movement there (CanPulseGuide is false); guide in equatorial mode")
         longest = self.settings.safety.guide_max_ms
         if direction not in GUIDE_DIRECTIONS:
             raise InvalidValue(f"Direction {direction} is not 0 (N), 1 (S), 2 (E) or 3 (W)")

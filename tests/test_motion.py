@@ -343,20 +343,25 @@ def _offset_run(server: AlpacaZwoServer, api: Api, model: MountModel, seconds: f
     return wrap12(ra1 - ra0) * 15 * 3600, (dec1 - dec0) * 3600
 
 
-def test_rate_offsets_move_the_mount_at_the_requested_rates(server_factory: ServerFactory) -> None:
+@pytest.mark.parametrize(("ra_arcsec", "dec_arcsec"), [(3.0, -3.0), (40.0, -40.0)])
+def test_rate_offsets_move_the_mount_at_the_requested_rates(server_factory: ServerFactory, ra_arcsec: float,
+                                                            dec_arcsec: float) -> None:
+    """Small offsets are paid in guide pulses, large ones (ConformU writes ±40″/s) by a slow move."""
     server = _server(server_factory)
     api, model = _api(server), _model(server)
     api.ok("Tracking", Tracking=True)
     api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-1.0), Declination=20.0)
     wait_until(lambda: api.value("Slewing") is False, 60, "the slew")
     assert api.value("CanSetRightAscensionRate") is True and api.value("CanSetDeclinationRate") is True
-    ra_rate, dec_rate = 0.2 / 15.0, -3.0  # 0.2 s of RA per sidereal second (~3″/s) and -3″/s
+    ra_rate, dec_rate = ra_arcsec / 15.0 / 1.00273790935, dec_arcsec  # RA seconds per sidereal second
     moved_ra, moved_dec = _offset_run(server, api, model, 20.0, ra_rate, dec_rate)
     assert api.value("RightAscensionRate") == ra_rate and api.value("DeclinationRate") == dec_rate
     expected_ra = ra_rate * 15 * 1.00273790935 * 20.0
     assert moved_ra == pytest.approx(expected_ra, abs=max(1.0, 0.05 * abs(expected_ra)))
-    assert moved_dec == pytest.approx(dec_rate * 20.0, abs=max(1.0, 0.05 * abs(dec_rate * 20.0)))
+    assert moved_dec == pytest.approx(dec_rate * 20.0, abs=max(1.0, 0.02 * abs(dec_rate * 20.0)))
     assert api.value("IsPulseGuiding") is False and api.value("Slewing") is False
+    served = api.value("Declination")
+    assert abs(served - model.position()[1]) * 3600 < 3.0, "the served Dec does not follow the offset"
 
 
 def test_rate_offsets_and_client_pulses_share_the_axes(server_factory: ServerFactory) -> None:
@@ -382,12 +387,12 @@ def test_rate_offsets_and_client_pulses_share_the_axes(server_factory: ServerFac
     assert moved == pytest.approx(expected, abs=2.0), f"moved {moved:.1f}″, expected {expected:.1f}″"
 
 
-def test_rate_offsets_are_refused_beyond_the_guide_rate_and_off_sidereal(server_factory: ServerFactory) -> None:
+def test_rate_offsets_are_refused_beyond_the_largest_and_off_sidereal(server_factory: ServerFactory) -> None:
     server = _server(server_factory)
     api = _api(server)
     api.ok("Tracking", Tracking=True)
-    assert api.error("DeclinationRate", DeclinationRate=100.0) == 0x401
-    assert api.error("RightAscensionRate", RightAscensionRate=1.0) == 0x401
+    assert api.error("DeclinationRate", DeclinationRate=601.0) == 0x401
+    assert api.error("RightAscensionRate", RightAscensionRate=100.0) == 0x401
     api.ok("TrackingRate", TrackingRate=1)
     assert api.error("DeclinationRate", DeclinationRate=1.0) == 0x40B
     assert api.value("DeclinationRate") == 0.0

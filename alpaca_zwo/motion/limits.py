@@ -64,7 +64,7 @@ class LimitsMixin:
 
     def _check_move_allowed(self, axis: int, rate: float) -> None:
         """Refuse a manual move that would have to stop at once (already at a limit, heading on)."""
-        limit = self._limit_reached({axis: rate}, self.mount.state)
+        limit = self._limit_reached({axis: rate}, self.mount.state, running=False)
         if limit:
             raise InvalidOperation(f"MoveAxis refused: {limit}")
 
@@ -77,16 +77,18 @@ class LimitsMixin:
         reason = self._limit_reached(moves, state)
         if reason:
             for axis in list(self.moves):
-                self.stop_axis(axis, f"manual move stopped before the limit: {reason}")
+                self.stop_axis(axis, f"manual move stopped before the {reason}")
 
-    def _limit_reached(self, moves: dict[int, float], state: MountState) -> str:
+    def _limit_reached(self, moves: dict[int, float], state: MountState, running: bool = True) -> str:
+        """Why stopping now would bring the mount to rest beyond a limit ('' if it would not). A move
+        already ``running`` has carried the mount on since the last reading, for the reading's age."""
         position = self.mount.position()
         if position is None or state.position_time is None:
             return ""
         settings = self._settings()
         latitude = settings.site.latitude
         now = self.mount.monotonic()
-        age = max(0.0, now - state.position_time)
+        age = max(0.0, now - state.position_time) if running else 0.0
         react = age + LIMIT_TICKS * TICK_S * self.mount.clock_rate
         ha0 = sky.hour_angle(self._lst(), position[0])
         dec0 = position[1]
@@ -101,7 +103,9 @@ class LimitsMixin:
             altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, latitude)
             floor = horizon_altitude_at(settings.limits, azimuth)
             if altitude < floor:
-                return f"altitude {altitude:.2f}° under the {floor:.2f}° allowed at azimuth {azimuth:.1f}°"
+                return (f"horizon limit: it would come to rest at altitude {altitude:.2f}°, under the {floor:.2f}° "
+                        f"allowed at azimuth {azimuth:.1f}°")
             if flip_deg is not None and state.pier == "W" and v_ha_deg > 0 and ha * 15.0 > flip_deg:
-                return f"hour angle {ha * 15.0:.2f}° past the meridian limit {flip_deg:.2f}°"
+                return (f"meridian limit: it would come to rest at hour angle {ha * 15.0:.2f}°, past the "
+                        f"{flip_deg:.2f}° allowed")
         return ""

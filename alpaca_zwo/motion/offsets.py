@@ -3,28 +3,44 @@
 The mount has no command for an offset rate, but it guides: a pulse moves an axis at the guide
 rate for a number of milliseconds. An offset is therefore paid as displacement owed: every
 ``CYCLE_S`` of mount time the owed arcseconds of each axis become one pulse of
-``owed / guide speed`` milliseconds. Between pulses the pointing lags the ideal path by at most one
-cycle's worth of offset, so a comet at 5″/s is followed to within about a couple of arcseconds.
+``owed / guide speed`` milliseconds, paid half a cycle (and half a pulse) ahead, so the pointing
+swings around the ideal path instead of trailing it: a comet at 5″/s is followed to within about
+a couple of arcseconds.
 
 Client pulse guiding and offsets share the axes without losing either: while a client pulse runs
 on an axis, nothing is sent there and the offset keeps accruing; when an offset pulse is replaced
 by a client pulse (the mount runs one pulse per axis), its unfinished part goes back to the owed
 balance. Offsets accrue only while the mount tracks and no slew is under way.
 
-Limits: an offset may be at most ``MAX_DUTY`` of the guide speed (the pulses must leave time to
-catch up), which at the default 0.5x guide rate is 6.8″/s; the granularity is one millisecond of
-guide pulse (0.0075″ at 0.5x).
+An offset larger than ``MAX_DUTY`` of the guide speed (6.8″/s at the default 0.5x guide rate)
+cannot be paid in pulses; it runs instead as a slow continuous move at the mount's variable rate
+(``:Rv``, steps of 0.01x sidereal = 0.15″/s), which is relative to the sky like tracking itself.
+Pulses give 1 ms granularity (0.0075″ at 0.5x); moves 0.15″/s. The largest offset is
+``MAX_OFFSET_ARCSEC`` per second.
 """
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
+from .._exceptions import LinkError, MotionCancelled, MountReplyError, ProtocolError
+from ..mount import PULSE_CHUNK_MS, Mount, MountState
 from ..protocol import Direction
 from ..sky import SIDEREAL_DEG_S
 
+if TYPE_CHECKING:
+    from .kinds import ManualMove, Motion, Pulse
+
+log = logging.getLogger(__name__)
+
 #: Mount seconds between offset pulses.
 CYCLE_S = 0.5
+#: The largest offset (arcsec/s), paid by a continuous move: a generous bound for comets and
+#: satellites of the solar system, far below slewing speeds.
+MAX_OFFSET_ARCSEC = 600.0
 #: The largest offset, as a fraction of the guide speed.
 MAX_DUTY = 0.9
 #: Owed displacement below this many milliseconds of pulse waits for the next cycle.
@@ -33,6 +49,11 @@ MIN_PULSE_MS = 5
 SIDEREAL_PER_SI = 1.00273790935
 
 _DIRECTIONS = ((Direction.EAST, Direction.WEST), (Direction.NORTH, Direction.SOUTH))
+
+
+def by_pulses(rate_arcsec: float, guide_arcsec_s: float) -> bool:
+    """Whether an offset is small enough to be paid in guide pulses (else a continuous move)."""
+    return abs(rate_arcsec) <= MAX_DUTY * guide_arcsec_s
 
 
 def guide_speed_arcsec(guide_rate: float) -> float:
@@ -93,15 +114,17 @@ class RateOffsets:
             axis.pulse_end = now
 
     def next_pulse(self, index: int, guide_arcsec_s: float) -> tuple[Direction, int] | None:
-        """The pulse that pays what is owed on an axis (and books it as paid), or None."""
+        """The pulse that pays what is owed on an axis, plus what accrues until the middle of the next
+        cycle (booked as paid, so the balance goes slightly negative), or None."""
         axis = self.axes[index]
-        ms = int(abs(axis.owed) / guide_arcsec_s * 1000.0)
+        lead = CYCLE_S * 0.5 * (1.0 + abs(axis.rate) / guide_arcsec_s)
+        ms = int(abs(axis.owed + axis.rate * lead) / guide_arcsec_s * 1000.0)
         if ms < MIN_PULSE_MS:
             return None
         positive, negative = _DIRECTIONS[index]
-        direction = positive if axis.owed > 0 else negative
+        direction = positive if axis.owed + axis.rate * lead > 0 else negative
         paid = ms / 1000.0 * guide_arcsec_s
-        axis.owed -= paid if axis.owed > 0 else -paid
+        axis.owed -= paid if direction is positive else -paid
         return direction, ms
 
     def sent(self, index: int, end: float, ms: int, direction: Direction, guide_arcsec_s: float) -> None:
@@ -109,3 +132,76 @@ class RateOffsets:
         axis.pulse_end = end
         sign = 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
         axis.pulse_speed = sign * guide_arcsec_s if ms else 0.0
+
+
+class OffsetsMixin:
+    """The rate-offset part of MotionSupervisor: pulses for small offsets, a slow move for large."""
+
+    mount: Mount
+    offsets: RateOffsets
+    motion: Motion | None
+    moves: dict[int, ManualMove]
+    pulses: dict[int, Pulse]
+    generation: int
+
+    if TYPE_CHECKING:  # provided by MotionSupervisor
+        def _guard(self, generation: int) -> Callable[[], bool]: ...
+        def _notify(self) -> None: ...
+
+    def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
+        """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east)."""
+        self.offsets.set_rate(axis, arcsec_per_s)
+        self._notify()
+
+    def _tick_offsets(self, now: float, state: MountState) -> None:
+        """Pay the rate offsets: guide pulses for small ones, a slow move for large (see offsets.py)."""
+        offsets = self.offsets
+        drifting = any(self.mount.drift_rates)
+        if not offsets.active and not drifting:
+            return
+        tracking = bool(state.tracking and state.tracking.on)
+        if self.motion is not None or self.moves or not tracking or not offsets.active:
+            offsets.reset()  # a slew or a stop starts the offset path afresh from where it ends
+            if drifting and self.motion is None and not self.moves:
+                self._drift(0, 0.0)
+                self._drift(1, 0.0)
+            return
+        guide = guide_speed_arcsec(state.guide_rate)
+        for axis in (0, 1):
+            rate = offsets.axes[axis].rate
+            wanted = 0.0 if by_pulses(rate, guide) else rate / 3600.0
+            if abs(wanted - self.mount.drift_rates[axis]) > 0.01 * SIDEREAL_DEG_S:
+                self._drift(axis, wanted)
+        if offsets.due(now):
+            offsets.accrue(now)
+            self._pay_offsets(now, guide)
+
+    def _pay_offsets(self, now: float, guide: float) -> None:
+        """One cycle: the owed displacement of each pulse-paid axis becomes a guide pulse."""
+        offsets = self.offsets
+        generation = self.generation
+        for axis in (0, 1):
+            if not by_pulses(offsets.axes[axis].rate, guide):
+                offsets.axes[axis].owed = 0.0  # paid by the move
+                continue
+            if axis in self.pulses or offsets.axes[axis].pulse_end > now:
+                continue  # a client pulse (or the last offset pulse) is running there
+            pulse = offsets.next_pulse(axis, guide)
+            if pulse is None:
+                continue
+            direction, ms = pulse
+            try:
+                end = self.mount.pulse_guide(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation))
+            except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
+                log.debug("rate offset pulse not sent: %s", exc)
+                offsets.axes[axis].owed += ms / 1000.0 * guide * (1 if direction in (Direction.EAST, Direction.NORTH)
+                                                                  else -1)
+                continue
+            offsets.sent(axis, end, ms, direction, guide)
+
+    def _drift(self, axis: int, rate_deg_s: float) -> None:
+        try:
+            self.mount.drift(axis, rate_deg_s, guard=self._guard(self.generation))
+        except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
+            log.warning("rate offset move on axis %d not changed: %s", axis, exc)
+

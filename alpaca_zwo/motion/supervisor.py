@@ -69,10 +69,13 @@ from .kinds import (
 )
 from .landing import LANDING_MARGIN_S, SLEW_S_FIXED, SLEW_S_PER_DEG, LandingMixin
 from .limits import LimitsMixin
-from .offsets import CYCLE_S, RateOffsets, guide_speed_arcsec
+from .offsets import CYCLE_S, OffsetsMixin, RateOffsets
 from .rest import Reading, RestMixin
 
 log = logging.getLogger(__name__)
+
+#: Real seconds between supervisor ticks while nothing moves (a Pi at the mount idles cheaply).
+IDLE_TICK_S = 1.0
 
 
 
@@ -85,7 +88,7 @@ def _mount_errors(what: str, exc: Exception) -> AlpacaError:
     return DriverError(f"{what}: mount link problem: {exc}", ERR_LINK)
 
 
-class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
+class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
     """Starts, watches, lands and stops every motion of one mount (see the module docstring)."""
 
     def __init__(
@@ -231,7 +234,9 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
         """A new slew replaces the running one: :Q#, then wait for the mount to drop its GOTO flag
         (a GOTO during a GOTO gets e3#). The wait gives up at once if a stop arrives."""
         state = self.mount.state
-        if self.motion is None and not self.moves and not state.moving_axes and not state.goto_running:
+        drifting = any(self.mount.drift_rates)
+        if self.motion is None and not self.moves and not state.moving_axes and not state.goto_running \
+                and not drifting:
             return
         try:
             self.mount.stop()
@@ -390,10 +395,12 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
                 log.exception("motion supervisor error")
 
     def _next_wake(self) -> float:
-        """Real seconds to wait: TICK_S at most, sooner when a pulse chunk or a landing is due."""
+        """Real seconds to wait: TICK_S at most while anything is under way (sooner when a pulse chunk,
+        a landing or an offset pulse is due), IDLE_TICK_S when nothing is: every start notifies."""
         now = self.mount.monotonic()
         rate = self.mount.clock_rate
-        delays = [TICK_S]
+        busy = self.motion is not None or self.moves or self.pulses or self.offsets.active or self._stop_pending
+        delays = [TICK_S if busy else IDLE_TICK_S]
         delays.extend(max(0.0, pulse.chunk_end - now) / rate for pulse in self.pulses.values())
         motion = self.motion
         landing = motion.landing if motion is not None and motion.phase is Phase.LANDING else None
@@ -445,36 +452,6 @@ class MotionSupervisor(LandingMixin, LimitsMixin, RestMixin):
             with self._lock:
                 if self.pulses.get(axis) is pulse:
                     self.pulses[axis] = replacement
-
-    def _tick_offsets(self, now: float, state: MountState) -> None:
-        """Pay the rate offsets' owed displacement with guide pulses (see offsets.py)."""
-        offsets = self.offsets
-        if not offsets.active:
-            return
-        tracking = bool(state.tracking and state.tracking.on)
-        if self.motion is not None or self.moves or not tracking:
-            offsets.reset()  # a slew or a stop starts the offset path afresh from where it ends
-            return
-        if not offsets.due(now):
-            return
-        offsets.accrue(now)
-        guide = guide_speed_arcsec(state.guide_rate)
-        generation = self.generation
-        for axis in (0, 1):
-            if axis in self.pulses or offsets.axes[axis].pulse_end > now:
-                continue  # a client pulse (or the last offset pulse) is running there
-            pulse = offsets.next_pulse(axis, guide)
-            if pulse is None:
-                continue
-            direction, ms = pulse
-            try:
-                end = self.mount.pulse_guide(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation))
-            except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
-                log.debug("rate offset pulse not sent: %s", exc)
-                offsets.axes[axis].owed += ms / 1000.0 * guide * (1 if direction in (Direction.EAST, Direction.NORTH)
-                                                                  else -1)
-                continue
-            offsets.sent(axis, end, ms, direction, guide)
 
     # -- motion phases -------------------------------------------------------------------------
 
