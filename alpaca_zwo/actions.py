@@ -30,6 +30,7 @@ from ._exceptions import (
     ActionNotImplemented,
     ConfigError,
     DriverError,
+    InvalidOperation,
     InvalidValue,
     LinkError,
     MemberNotImplemented,
@@ -133,6 +134,15 @@ def _require_meridian_firmware(telescope: Telescope) -> None:
                                    "(:GTa#/:STa) need firmware 1.2.4 or later")
 
 
+def _refuse_in_altaz(telescope: Telescope, action: str) -> None:
+    """Meridian settings belong to a German mount: in alt-az mode (``Z`` in ``:GU#``) there is no meridian
+    to stop at or flip over, so the action is refused before anything is sent."""
+    status = telescope.mount.state.status
+    if status is not None and status.mode is MountMode.ALTAZ:
+        raise InvalidOperation(f"{action} does not apply in alt-az mode: an alt-az mount has no meridian limit or "
+                               "flip (switch to equatorial mode with zwo:MountMode and restart the mount to use it)")
+
+
 def _save(telescope: Telescope, action: str, section: str, values: Mapping[str, object]) -> Settings:
     """Persist configuration values through the settings store, as the setup page does.
 
@@ -187,6 +197,7 @@ def _write_heavy_duty(telescope: Telescope, changes: Reply) -> None:
 
 
 def _read_meridian(telescope: Telescope) -> Reply:
+    _refuse_in_altaz(telescope, "zwo:MeridianSettings")
     _require_meridian_firmware(telescope)
     meridian = _settings(telescope).meridian
     limits = telescope.settings.limits
@@ -198,6 +209,7 @@ def _read_meridian(telescope: Telescope) -> Reply:
 
 
 def _write_meridian(telescope: Telescope, changes: Reply) -> None:
+    _refuse_in_altaz(telescope, "zwo:MeridianSettings")
     _require_meridian_firmware(telescope)
     current = _settings(telescope).meridian or MeridianSettings()
     wanted = MeridianSettings(flip=current.flip,  # "temporarily not supported" by ZWO: kept as it is
