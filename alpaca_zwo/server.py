@@ -200,7 +200,11 @@ class AlpacaZwoServer:
 
         port = config.port if self.overrides.stellarium_port is None else self.overrides.stellarium_port
         host = self.overrides.host or config.host  # --host binds every listener to that address
-        bridge = StellariumBridge(self.telescopes[0], host=host, port=port, equinox=config.equinox)
+        try:
+            bridge = StellariumBridge(self.telescopes[0], host=host, port=port, equinox=config.equinox)
+        except ValueError as exc:  # J2000 without pyerfa (32-bit ARM): say what to do, keep serving Alpaca
+            log.error("Stellarium server not started: %s", exc)
+            return
         try:
             bridge.start()
         except OSError as exc:  # the port is taken: Alpaca still serves, the log says why Stellarium cannot connect

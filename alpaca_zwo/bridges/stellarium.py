@@ -34,7 +34,10 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any
 
-import erfa
+try:
+    import erfa
+except ImportError:  # pyerfa has no wheel for 32-bit ARM (armv7 Pis): J2000 needs it, JNow does not
+    erfa = None
 
 from .._exceptions import AlpacaError
 from ..clients import ClientKey, current_client
@@ -47,7 +50,8 @@ log = logging.getLogger(__name__)
 
 # A goto dated 2099 (UTCDate can be set) only makes ERFA warn that its leap-second table may be
 # out of date; the few tenths of a second at stake do not matter here.
-warnings.filterwarnings("ignore", message=".*dubious year.*", category=erfa.ErfaWarning)
+if erfa is not None:
+    warnings.filterwarnings("ignore", message=".*dubious year.*", category=erfa.ErfaWarning)
 
 #: How the bridge appears among the Telescope's connected clients.
 BRIDGE_CLIENT = ClientKey("stellarium", 0)
@@ -163,6 +167,10 @@ class StellariumBridge:
                  *, rate_hz: float = 4.0, max_clients: int = 64) -> None:
         if equinox not in ("J2000", "JNow"):
             raise ValueError(f"equinox must be 'J2000' or 'JNow', not {equinox!r}")
+        if equinox == "J2000" and erfa is None:
+            raise ValueError("equinox J2000 needs the pyerfa package, which has no wheel for this CPU on PyPI: "
+                             "install it from piwheels (pip install pyerfa), or set [stellarium] equinox = \"JNow\" "
+                             "and choose JNow in Stellarium")
         self.telescope = telescope
         self.host = host
         self.equinox = equinox
