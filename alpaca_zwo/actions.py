@@ -19,6 +19,7 @@ Conventions, the same for every action:
 from __future__ import annotations
 
 import json
+import logging
 import math
 import weakref
 from collections.abc import Callable, Iterator, Mapping
@@ -44,6 +45,8 @@ from .protocol import MeridianSettings, MountMode, MountStatus, parse_status
 if TYPE_CHECKING:
     from .mount import MountSettings
     from .telescope import Telescope
+
+log = logging.getLogger(__name__)
 
 # DriverError numbers, the same as the Telescope's, so scripts tell the cases apart the same way.
 ERR_LINK = 0x500
@@ -260,9 +263,21 @@ def _read_mode(telescope: Telescope) -> Reply:
 
 
 def _write_mode(telescope: Telescope, changes: Reply) -> None:
-    wanted = MountMode.EQUATORIAL if changes["mode"] == "equatorial" else MountMode.ALTAZ
+    request_mode(telescope, changes["mode"])
+
+
+def request_mode(telescope: Telescope, name: str) -> None:
+    """Send ``:AP#``/``:AA#`` for ``name`` ("equatorial" or "altaz") and remember it as requested: the mount
+    applies it only after a restart (field notes §2.8), and then ``:GU#`` shows the new letter."""
+    wanted = MountMode.EQUATORIAL if name == "equatorial" else MountMode.ALTAZ
     telescope.mount.set_mode(wanted is MountMode.EQUATORIAL)
     _requested_modes[telescope] = wanted
+    log.warning("mount mode %s requested: the mount must be restarted for it to take effect", name)
+
+
+def mode_report(telescope: Telescope) -> Reply:
+    """The zwo:MountMode reply (current mode, requested mode, restart_required and its message)."""
+    return _read_mode(telescope)
 
 
 def _read_info(telescope: Telescope) -> Reply:

@@ -186,7 +186,13 @@ class DeviceFacade:
         return self._mount_settings
 
     def apply_mount_setting(self, name: str, value: Any) -> None:
-        """Write one mount-held setting: meridian, upper_limit, lower_limit, limits_enabled, heavy_duty, buzzer."""
+        """Write one mount-held setting: meridian, upper_limit, lower_limit, limits_enabled, heavy_duty, buzzer,
+        mode ("equatorial"/"altaz": sent now, in effect after the mount is restarted; see ``mount_mode``)."""
+        if name == "mode":
+            from .actions import request_mode
+
+            request_mode(self._telescope, value)
+            return
         mount = self._telescope.mount
         setters: dict[str, Callable[[Any], None]] = {
             "meridian": self._telescope.set_meridian_settings, "upper_limit": mount.set_upper_limit,
@@ -194,6 +200,19 @@ class DeviceFacade:
             "heavy_duty": mount.set_heavy_duty, "buzzer": mount.set_buzzer}
         setters[name](value)
         log.info("setup page: mount %s set to %s", name.replace("_", " "), value)
+
+    def mount_mode(self) -> dict[str, Any] | None:
+        """The mode now in effect, the one requested and, while they differ, the warning that the mount
+        must be restarted (the zwo:MountMode reply); None without a link (it reads ``:GU#`` fresh)."""
+        mount = self._telescope.mount
+        if not mount.running or not mount.link.status.connected:
+            return None
+        from .actions import mode_report
+
+        try:
+            return mode_report(self._telescope)
+        except AlpacaError:
+            return None
 
     def set_site(self, values: Mapping[str, float]) -> None:
         """Through the Telescope, so the mount gets the new site at once and clients read the same values."""

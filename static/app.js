@@ -627,7 +627,13 @@
       if (m.lower_limit !== null) $("ml-lower").value = m.lower_limit;
       if (m.heavy_duty !== null) $("m-heavy").checked = m.heavy_duty;
       if (m.buzzer !== null) $("m-buzzer").value = String(m.buzzer);
-    } else {
+    }
+    const mode = s.mode;
+    if (mode) {
+      $("m-mode").value = mode.requested === "unknown" ? "equatorial" : mode.requested;
+      setText("m-mode-note", mode.restart_required ? "\u26a0 " + mode.message : "In effect: " + mode.mode + " mode.");
+    }
+    if (!m) {
       $("mer-track").checked = s.limits.meridian_track_past;
       $("mer-limit").value = Math.round(s.limits.meridian_limit_deg);
     }
@@ -686,6 +692,8 @@
     $("form-mlimits").addEventListener("submit", saveSettings("Altitude limits saved.", () => ({
       mount_limits: { enabled: $("ml-enabled").checked, upper: num("ml-upper"), lower: num("ml-lower") },
     })));
+    $("form-mode").addEventListener("submit", saveSettings(
+      "Mode sent: restart the mount (switch it off and on) for it to take effect.", () => ({ mode: $("m-mode").value })));
     $("form-mount").addEventListener("submit", saveSettings("Mount settings saved.", () => ({
       heavy_duty: $("m-heavy").checked, buzzer: num("m-buzzer"),
     })));

@@ -2,7 +2,7 @@
 
 A change is a JSON object of groups. Each group has one entry in a table: the file-held groups
 (``site``, ``park``, ``limits``, ``safety``, ``device``) are merged into the settings file, the
-mount-held ones (``meridian``, ``mount_limits``, ``heavy_duty``, ``buzzer``) become checked
+mount-held ones (``meridian``, ``mount_limits``, ``heavy_duty``, ``buzzer``, ``mode``) become checked
 commands for the mount. Everything is checked before anything is applied, so a typo in one field
 never leaves the mount changed and the file not (or the reverse). The mount goes first because it
 is the one that can still refuse; the file is then written in one atomic update.
@@ -74,12 +74,20 @@ def _buzzer(device: DeviceFacade, raw: Any) -> list[MountCommand]:
     return [("buzzer", integer({"buzzer": raw}, "buzzer", 0, 2))]
 
 
+def _mode(device: DeviceFacade, raw: Any) -> list[MountCommand]:
+    """EQ/alt-az: sent now, in effect only after the mount is restarted (the view says so)."""
+    if raw not in ("equatorial", "altaz"):
+        raise ApiError(400, 'mode must be "equatorial" or "altaz"')
+    return [("mode", raw)]
+
+
 #: The mount-held groups, in the order their commands are sent.
 MOUNT_GROUPS: dict[str, MountGroup] = {
     "meridian": _meridian,
     "mount_limits": _mount_limits,
     "heavy_duty": _heavy_duty,
     "buzzer": _buzzer,
+    "mode": _mode,
 }
 
 
@@ -158,6 +166,8 @@ def settings_view(facade: ServerFacade, device: DeviceFacade, mount: MountSettin
         "device": {"name": device.name, "unique_id": device.unique_id, "url": device.url or "(built-in emulator)"},
         "connected": device.running,
         "mount": _mount_view(mount),
+        # {"mode", "requested", "restart_required", "message"}: the page shows the restart warning.
+        "mode": device.mount_mode(),
         "site": dataclasses.asdict(settings.site),
         "park": dataclasses.asdict(settings.park),
         "limits": {"min_altitude_deg": limits.min_altitude_deg,
