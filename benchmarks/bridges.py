@@ -2,7 +2,7 @@
 
 The emulator (paced at 9600 baud, DEBUG log) and alpaca-zwo run as separate processes, alpaca-zwo
 with its Stellarium server and shared ZWO-protocol port on (loopback, free ports). The mount line
-is counted at the emulator over equal windows, the mount at rest and tracking:
+is counted at the emulator over equal windows, the mount at rest (tracking off, as after power-on):
 
 1. Alpaca pollers only (N.I.N.A.-like clients);
 2. the same plus 5 Stellarium clients (``tests/bridges/stellarium_client.py``, written from the
@@ -280,7 +280,7 @@ def render(results: dict[str, Any]) -> str:
     rows = results["rows"]
     lines = [f"### Bridges and the mount line {meta['started']}", "",
              f"- command: `{meta['command']}` ({meta['duration_s']} s); {meta['pollers']} N.I.N.A.-like pollers "
-             f"throughout; mount at rest, tracking; emulator 9600 baud, 1x",
+             f"throughout; mount at rest (tracking off, as after power-on); emulator 9600 baud, 1x",
              f"- commit {meta['commit']}; load average at start {' / '.join(f'{v:.2f}' for v in meta['loadavg_start'])}"
              f", at end {' / '.join(f'{v:.2f}' for v in meta['loadavg_end'])}", "",
              "| Phase | window s | exchanges/min | bytes/min to / from mount | whole cycles: bytes/min, exchanges/min, "
