@@ -229,7 +229,7 @@ class Link:
             while self._status.state is not LinkState.CONNECTED:
                 remaining = deadline - time.monotonic()
                 if remaining <= 0 or self._status.state is LinkState.CLOSED:
-                    return self._status.state is LinkState.CONNECTED
+                    return False  # (it is not connected: the loop condition just said so)
                 self._state_changed.wait(remaining)
         return True
 

@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timedelta, timezone
+from typing import Any
 
 from . import protocol
 from ._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
@@ -256,7 +257,7 @@ class Mount:
     def state(self) -> MountState:
         return self._state
 
-    def _publish(self, **changes: object) -> MountState:
+    def _publish(self, **changes: Any) -> MountState:
         with self._state_cond:
             self._state = replace(self._state, time=self.monotonic(), link=self.link.status, **changes)
             self._state_cond.notify_all()
@@ -545,7 +546,7 @@ class Mount:
 
     def set_guide_rate(self, fraction: float) -> float:
         self._exec(protocol.set_guide_rate(fraction))
-        actual = self._exec(protocol.query("Ggr"))
+        actual = float(self._exec(protocol.query("Ggr")))
         self._publish(guide_rate=actual)
         return actual
 
@@ -671,7 +672,7 @@ class Mount:
 
     # -- helpers -----------------------------------------------------------------------------
 
-    def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND, guard: Guard | None = None):
+    def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND, guard: Guard | None = None) -> Any:
         try:
             return self.link.execute(req, priority, guard=guard)
         finally:
@@ -679,13 +680,13 @@ class Mount:
                 with self._publish_lock:
                     self._epoch += 1
 
-    def _changed(self, **changes: object) -> MountState:
+    def _changed(self, **changes: Any) -> MountState:
         """Publish the effect of a command, ending any poll that overlapped it (see poll_once)."""
         with self._publish_lock:
             self._epoch += 1
             return self._publish(**changes)
 
-    def _try(self, req: protocol.Request):
+    def _try(self, req: protocol.Request) -> Any:
         try:
             return self._exec(req)
         except (MountReplyError, ProtocolError, LinkError) as exc:

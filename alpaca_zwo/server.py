@@ -15,8 +15,9 @@ from datetime import datetime
 from typing import Any
 
 from . import __version__
-from .alpaca.app import ServerInfo, create_app
+from .alpaca.app import create_app
 from .alpaca.http import HttpServer
+from .alpaca.management import ServerInfo
 from .clients import ClientRegistry
 from .config import DeviceSettings, Settings
 from .facade import ServerFacade

@@ -754,24 +754,30 @@ class Telescope:
                 f"is under the {floor:.2f}° allowed there"
             )
 
-    def slew_to_coordinates_async(self, right_ascension: float, declination: float) -> Motion:
+    def slew_to_coordinates_async(self, right_ascension: float, declination: float) -> None:
+        self._slew_to_coordinates(right_ascension, declination)
+
+    def slew_to_coordinates(self, right_ascension: float, declination: float) -> None:
+        self.motion.wait(self._slew_to_coordinates(right_ascension, declination))
+
+    def _slew_to_coordinates(self, right_ascension: float, declination: float) -> Motion:
         self._check_equatorial(right_ascension, declination)
         self._require_connected()
         self._require_unparked("SlewToCoordinatesAsync")
         self._target_ra, self._target_dec = right_ascension, declination
         return self._goto(right_ascension, declination)
 
-    def slew_to_coordinates(self, right_ascension: float, declination: float) -> None:
-        self.motion.wait(self.slew_to_coordinates_async(right_ascension, declination))
+    def slew_to_target_async(self) -> None:
+        self._slew_to_target()
 
-    def slew_to_target_async(self) -> Motion:
+    def slew_to_target(self) -> None:
+        self.motion.wait(self._slew_to_target())
+
+    def _slew_to_target(self) -> Motion:
         ra, dec = self.target_right_ascension(), self.target_declination()
         self._require_connected()
         self._require_unparked("SlewToTargetAsync")
         return self._goto(ra, dec)
-
-    def slew_to_target(self) -> None:
-        self.motion.wait(self.slew_to_target_async())
 
     def _goto(self, ra: float, dec: float) -> Motion:
         self._check_above_limits(ra, dec)
@@ -781,7 +787,13 @@ class Telescope:
         ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
         return sky.ra_from_hour_angle(self._lst(), ha), dec
 
-    def slew_to_alt_az_async(self, azimuth: float, altitude: float) -> Motion:
+    def slew_to_alt_az_async(self, azimuth: float, altitude: float) -> None:
+        self._slew_to_alt_az(azimuth, altitude)
+
+    def slew_to_alt_az(self, azimuth: float, altitude: float) -> None:
+        self.motion.wait(self._slew_to_alt_az(azimuth, altitude))
+
+    def _slew_to_alt_az(self, azimuth: float, altitude: float) -> Motion:
         self._check_horizontal(azimuth, altitude)
         self._require_connected()
         self._require_unparked("SlewToAltAzAsync")
@@ -792,8 +804,6 @@ class Telescope:
         # the slew ends at the instant the pointing passes the Alt/Az, and tracking carries on.
         return self.motion.goto_fixed(ha, dec, MotionKind.ALTAZ, freeze=not tracking)
 
-    def slew_to_alt_az(self, azimuth: float, altitude: float) -> None:
-        self.motion.wait(self.slew_to_alt_az_async(azimuth, altitude))
 
     def abort_slew(self) -> None:
         self._require_connected()

@@ -234,7 +234,7 @@ class BasicAuth:
 
 def create_app(devices: Sequence[AlpacaDevice], registry: ClientRegistry, info: ServerInfo, *,
                max_body_bytes: int = 65536, basic_auth: tuple[str, str] | None = None,
-               extra_routes: Iterable[tuple[str, object]] = ()) -> falcon.App:
+               extra_routes: Iterable[tuple[str, object]] = ()) -> falcon.App[falcon.Request, falcon.Response]:
     """Build the WSGI app serving ``devices`` as telescope 0, 1, ... plus the management API.
 
     ``extra_routes`` are ``(uri_template, resource)`` pairs mounted as-is (e.g. the /setup pages);

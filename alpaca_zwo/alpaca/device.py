@@ -27,10 +27,13 @@ class AlpacaDevice(Protocol):
     methods take snake_case keyword arguments named after the Alpaca parameters.
     """
 
-    #: Shown by /management/v1/configureddevices; read per request so renames show up at once.
-    device_name: str
-    #: Persistent, globally unique ID (a UUID) for /management/v1/configureddevices.
-    unique_id: str
+    @property
+    def device_name(self) -> str:
+        """Shown by /management/v1/configureddevices; read per request so renames show up at once."""
+
+    @property
+    def unique_id(self) -> str:
+        """Persistent, globally unique ID (a UUID) for /management/v1/configureddevices."""
 
     # --- common members -------------------------------------------------------------------------
     def action(self, action: str, parameters: str) -> str: ...

@@ -13,7 +13,7 @@ import math
 import threading
 from collections.abc import Callable, Iterable
 from datetime import datetime, timezone
-from json.encoder import encode_basestring_ascii  # type: ignore[attr-defined]
+from json.encoder import encode_basestring_ascii
 from typing import Any
 
 from alpaca_zwo.alpaca.members import ValueType

@@ -43,9 +43,10 @@ from .._exceptions import (
 )
 from ..clients import ClientKey
 from ..config import ZWO_PORT_DANGEROUS, horizon_altitude_at
-from ..mount import SIDEREAL_DEG_S, MountSettings
+from ..mount import MountSettings
 from ..protocol import (
     SLEW_SPEEDS,
+    MeridianSettings,
     MountStatus,
     ReplyKind,
     TrackRate,
@@ -60,6 +61,7 @@ from ..protocol import (
     format_time,
     format_utc_offset,
 )
+from ..sky import SIDEREAL_DEG_S
 from .zwo_clock_site import ClockAndSite
 
 if TYPE_CHECKING:
@@ -178,7 +180,7 @@ class ZwoResponder:
             "SC": c.set_date, "GC": lambda s, a, w: format_date(c.local().date()) + "#",
             "SL": c.set_time, "GL": lambda s, a, w: format_time(c.local().time()) + "#",
             "GS": lambda s, a, w: format_hms(t.sidereal_time()) + "#",
-            "GH": lambda s, a, w: self._setting_reply(lambda m: f"{int(m.daylight_saving)}#", "daylight_saving"),
+            "GH": lambda s, a, w: self._setting_reply(lambda m: f"{int(bool(m.daylight_saving))}#", "daylight_saving"),
             "SG": c.set_zone, "GG": lambda s, a, w: format_utc_offset(c.utc_offset_hours) + "#",
             "St": c.set_latitude, "Gt": lambda s, a, w: format_latitude(t.site_latitude()) + "#",
             "Sg": c.set_longitude, "Gg": lambda s, a, w: format_longitude(t.site_longitude()) + "#",
@@ -222,8 +224,9 @@ class ZwoResponder:
             "Gh": lambda s, a, w: "#",  # the common firmware answer (field notes §6 row 11)
             "Spu": self._unpark, "Gps": lambda s, a, w: "2#" if t.at_park() else "0#",
             # Meridian and limits (read from the cached settings; their setters are guarded)
-            "GTa": lambda s, a, w: self._setting_reply(lambda m: format_meridian(m.meridian) + "#", "meridian"),
-            "GLC": lambda s, a, w: self._setting_reply(lambda m: _ok(m.limits_enabled) + "#", "limits_enabled"),
+            "GTa": lambda s, a, w: self._setting_reply(
+                lambda m: format_meridian(m.meridian or MeridianSettings()) + "#", "meridian"),
+            "GLC": lambda s, a, w: self._setting_reply(lambda m: _ok(bool(m.limits_enabled)) + "#", "limits_enabled"),
             "GLH": lambda s, a, w: self._setting_reply(lambda m: f"{m.upper_limit}#", "upper_limit"),
             "GLL": lambda s, a, w: self._setting_reply(lambda m: f"{m.lower_limit}#", "lower_limit"),
             "GRl": lambda s, a, w: self._setting_reply(lambda m: "720#" if m.heavy_duty else "1440#", "heavy_duty"),
