@@ -13,10 +13,12 @@ How the mount moves in this mode (the field notes say nothing more, so this is t
   the altitude upright and takes the short way round in azimuth.
 - Tracking and manual moves keep the equatorial meaning they have in EQ mode (tracking holds RA/Dec;
   ``:Me/:Mw/:Mn/:Ms#`` move relative to the sky): each step the controller turns the wanted
-  hour-angle/Dec motion into the axis positions for the end of the step and drives each axis there,
-  within its acceleration. Near the zenith the azimuth cannot keep up (the keyhole); the controller
-  then takes whichever axis solution is closer, which can carry the altitude over the top: tracking
-  stops with ``e10``.
+  hour-angle/Dec motion into the axis positions for the end of the step and drives both axes there
+  together, within the acceleration. Near the zenith the azimuth cannot keep up (the keyhole): the
+  altitude stays upright and the pointing lags, except when the mount has been tracking undisturbed
+  (no move, slew or braking for ``SETTLED_S``) and the star needs the azimuth to turn faster than
+  its top speed, i.e. it crosses (almost) through the zenith: then the altitude is carried over
+  the top, and tracking stops with ``e10``.
 - Guide pulses are accepted but move nothing (PT: 200-2000 ms pulses gave no measurable movement in
   alt-az mode, field notes §2.5).
 """
@@ -29,6 +31,8 @@ from dataclasses import dataclass
 from .. import sky
 from .state import DEC, RA, Slew, ramp
 
+#: Undisturbed tracking time after which a zenith transit takes the altitude over the top (mount s).
+SETTLED_S = 10.0
 #: Half-width of the time window used to differentiate a moving alt-az GOTO target.
 _DIFF_S = 0.25
 
@@ -84,10 +88,15 @@ class AltAzSlew(Slew):
 
 
 def follow_sky(
-    pos: list[float], vel: list[float], v_ha_deg: float, v_dec: float, latitude: float, accel: float, dt: float
+    pos: list[float], vel: list[float], sky_velocity: tuple[float, float], latitude: float,
+    limits: tuple[float, float], dt: float, may_invert: bool = False,
 ) -> None:
     """One step of tracking/moves in alt-az: drive both axes (in place) toward where the pointing,
-    moved by (``v_ha_deg``, ``v_dec``) deg/s in hour angle and Dec, will be after ``dt``."""
+    moved by ``sky_velocity`` (hour angle, Dec; deg/s), will be after ``dt``. ``limits`` are the axes'
+    (acceleration, top speed). With ``may_invert`` (settled tracking) an azimuth turn faster than the
+    top speed is made by carrying the altitude over the top instead."""
+    accel, vmax = limits
+    v_ha_deg, v_dec = sky_velocity
     ha, dec = axes_to_ha_dec_altaz(pos[RA], pos[DEC], latitude)
     ha_deg, dec = ha * 15.0 + v_ha_deg * dt, dec + v_dec * dt
     if dec > 90.0:  # a move carried past the pole: same point, HA turned by 12 h
@@ -95,7 +104,9 @@ def follow_sky(
     elif dec < -90.0:
         ha_deg, dec = ha_deg + 180.0, -180.0 - dec
     alt, az = sky.equatorial_to_horizontal(ha_deg / 15.0, dec, latitude)
-    goal = nearest_axes(alt, az, pos[RA], pos[DEC])
+    goal = (pos[RA] + wrap_180(az - pos[RA]), alt)
+    if pos[DEC] > 90.0 or (may_invert and abs(goal[RA] - pos[RA]) > vmax * dt):
+        goal = nearest_axes(alt, az, pos[RA], pos[DEC])  # stays over the top once there
     wanted = [(goal[axis] - pos[axis]) / dt for axis in (RA, DEC)]
     # Coordinated: when one axis cannot reach its speed within the step, both change speed in the
     # same proportion, so a move starts and stops along its sky path instead of curving off it.

@@ -153,6 +153,7 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
         self._moves: list[float | None] = [None, None]
         self._pulses: list[Pulse | None] = [None, None]
         self._speed = SLEW_SPEEDS[9]
+        self._disturbed_t = self._t
         self._axis_speed: list[float | None] = [None, None]
         # Tracking
         self._tracking = False

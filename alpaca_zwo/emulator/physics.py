@@ -12,7 +12,7 @@ import math
 from .. import sky
 from ..protocol import MountMode
 from ..sky import LUNAR_DEG_S, SIDEREAL_DEG_S, SOLAR_DEG_S
-from .altaz import axes_to_ha_dec_altaz, follow_sky
+from .altaz import SETTLED_S, axes_to_ha_dec_altaz, follow_sky
 from .state import (
     AT_HOME_DEG,
     DEC,
@@ -81,8 +81,12 @@ class Mechanics(ModelBase):
         elif self._altaz():
             # The sky motion EQ mode gives the axes directly, turned into azimuth/altitude motion;
             # guide pulses move nothing in alt-az (field notes §2.5, PT).
-            v_ha, v_dec = self._commanded(RA, pulses=False), self._commanded(DEC, pulses=False)
-            follow_sky(self._pos, self._vel, v_ha, v_dec, self._latitude, self._accel, dt)
+            sky_velocity = (self._commanded(RA, pulses=False), self._commanded(DEC, pulses=False))
+            if not self._tracking or self._moves != [None, None]:
+                self._disturbed_t = self._t + dt
+            limits = (self._accel, self._persist.max_speed * SIDEREAL_DEG_S)
+            settled = self._t - self._disturbed_t >= SETTLED_S
+            follow_sky(self._pos, self._vel, sky_velocity, self._latitude, limits, dt, may_invert=settled)
         else:
             for axis in (RA, DEC):
                 self._pos[axis], self._vel[axis] = ramp(
@@ -95,6 +99,7 @@ class Mechanics(ModelBase):
     def _slew_step(self, dt: float) -> None:
         slew = self._slew
         assert slew is not None
+        self._disturbed_t = self._t + dt + 3.0  # a slew ends braking onto the target
         vmax = self._persist.max_speed * SIDEREAL_DEG_S
         t = self._t
         for axis in (RA, DEC):

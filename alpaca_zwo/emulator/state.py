@@ -149,6 +149,7 @@ class ModelBase:
     _moves: list[float | None]
     _pulses: list[Pulse | None]
     _speed: float
+    _disturbed_t: float  # when a slew, move or untracked motion last ran (alt-az zenith rule)
     _axis_speed: list[float | None]
     # Tracking
     _tracking: bool

@@ -266,3 +266,20 @@ def test_sync_knows_no_meridian_side(ready: MountClient, model: MountModel, cloc
 def test_factory_park_is_equatorial_only(ready: MountClient) -> None:
     """§2.7: ``:hP#`` and ``:Sp01#`` are EQ-mode only (``:Sp01#`` code 4 "not in EQ mode", §4.2)."""
     assert ready.exact(":Sp01#") == "4"
+
+
+def test_moves_through_the_zenith_keep_the_altitude_upright(
+    ready: MountClient, model: MountModel, clock: ManualClock
+) -> None:
+    """From home (the zenith) a fast move cannot turn the azimuth at once; the altitude stays upright
+    (the pointing lags in the keyhole), so tracking can start afterwards. Only settled tracking of a
+    star through the zenith takes the altitude over the top (the e10 test above)."""
+    for direction in ("w", "e", "n", "s"):
+        ready.send(":R9#")
+        ready.send(f":M{direction}#")
+        clock.advance(2.0)
+        ready.send(f":Q{direction}#")
+        clock.advance(3.0)
+        assert model.axes()[1] <= 90.0
+    assert ready.exact(":Te#") == "1"
+    assert ready.ask(":GAT#") == "1#"
