@@ -1,0 +1,251 @@
+"""The server with the mount in alt-az mode, through alpyca, judged by the emulator's own truth.
+
+The built-in emulator starts in alt-az mode (``[emulator] mode = "altaz"``, as after ``:AA#`` and a
+restart). Facts from shared/zwo/field-notes.md: ``:GU#`` shows ``Z`` in alt-az mode (§3); guide
+pulses produce no measurable movement there (§2.5, PT), so PulseGuide and the rate offsets built
+from pulses are not offered; ``:AA#``/``:AP#`` need a restart (§2.8). ASCOM: AlignmentMode algAltAz
+(0), SideOfPier/DestinationSideOfPier pierUnknown (-1) for a mount that has no pier side.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import pytest
+import requests
+from alpaca.exceptions import InvalidOperationException, NotImplementedException
+from alpaca.telescope import AlignmentModes, GuideDirections, PierSide, TelescopeAxes
+from alpaca.telescope import Telescope as AlpycaTelescope
+
+from alpaca_zwo import sky
+from alpaca_zwo.config import EmulatorSettings
+from alpaca_zwo.emulator import MountModel
+from alpaca_zwo.protocol import MountMode
+from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.web import CSRF_HEADER
+from tests.conftest import ServerFactory, make_settings
+from tests.support import wait_until
+
+SPEED = 8.0
+ARCSEC = 1.0 / 3600.0
+
+
+@dataclass
+class Rig:
+    server: AlpacaZwoServer
+    scope: AlpycaTelescope
+    model: MountModel
+
+    def sent_since(self, start: int) -> list[str]:
+        return [entry.request for entry in self.server.telescopes[0].mount.link.trace()[start:]]
+
+    def trace_length(self) -> int:
+        return len(self.server.telescopes[0].mount.link.trace())
+
+    def mount_seconds(self) -> float:
+        emulator = self.server.emulators[0]
+        assert emulator is not None
+        return emulator.clock.seconds()
+
+    def wait_slew(self, what: str) -> None:
+        wait_until(lambda: not self.scope.Slewing, 60, what, interval=0.05)
+
+
+def _rig(server_factory: ServerFactory, mode: str = "altaz") -> Rig:
+    server = server_factory(make_settings(emulator=EmulatorSettings(speed=SPEED, baud=0, mode=mode)))
+    emulator = server.emulators[0]
+    assert emulator is not None
+    scope = AlpycaTelescope(f"127.0.0.1:{server.port}", 0)
+    scope.Connected = True
+    return Rig(server, scope, emulator.model)
+
+
+@pytest.fixture
+def rig(server_factory: ServerFactory) -> Iterator[Rig]:
+    rig = _rig(server_factory)
+    yield rig
+    rig.scope.Connected = False
+
+
+def _rounding_arcsec(dec: float) -> float:
+    """How far a target rounded to the mount's whole seconds of RA can lie from the request, plus 1"."""
+    return 0.5 * 15.0 * math.cos(math.radians(dec)) + 1.0
+
+
+def _ra_at_ha(scope: AlpycaTelescope, ha: float) -> float:
+    return (scope.SiderealTime - ha) % 24.0
+
+
+# --------------------------------------------------------------------------------------------
+# What clients are told
+# --------------------------------------------------------------------------------------------
+
+
+def test_alignment_mode_and_capabilities(rig: Rig) -> None:
+    scope = rig.scope
+    assert rig.model.mode() is MountMode.ALTAZ
+    assert scope.AlignmentMode == AlignmentModes.algAltAz
+    assert scope.CanPulseGuide is False
+    assert scope.CanSetPierSide is False
+    assert scope.CanSetRightAscensionRate is False and scope.CanSetDeclinationRate is False
+    assert scope.SideOfPier == PierSide.pierUnknown
+    assert scope.DestinationSideOfPier(_ra_at_ha(scope, 2.0), 40.0) == PierSide.pierUnknown
+    assert scope.DestinationSideOfPier(_ra_at_ha(scope, -2.0), 40.0) == PierSide.pierUnknown
+    with pytest.raises(NotImplementedException):
+        scope.IsPulseGuiding  # noqa: B018 - ConformU: must fail when CanPulseGuide is false
+    names = {item["Name"] for item in scope.DeviceState}
+    assert "IsPulseGuiding" not in names and "SideOfPier" in names
+    # Still the ordinary reads.
+    assert 0.0 <= scope.Altitude <= 90.0 and 0.0 <= scope.Azimuth < 360.0
+    assert scope.RightAscensionRate == 0.0 and scope.DeclinationRate == 0.0
+
+
+def test_pulse_guide_and_rate_offsets_are_refused_and_nothing_is_sent(rig: Rig) -> None:
+    """PT (§2.5): pulses move nothing in alt-az, so PulseGuide answers NotImplemented (0x400)."""
+    start = rig.trace_length()
+    before = rig.model.position()
+    with pytest.raises(NotImplementedException, match="alt-az"):
+        rig.scope.PulseGuide(GuideDirections.guideEast, 1000)
+    with pytest.raises(NotImplementedException, match="alt-az"):
+        rig.scope.RightAscensionRate = 0.001
+    with pytest.raises(NotImplementedException, match="alt-az"):
+        rig.scope.DeclinationRate = 0.5
+    assert not [r for r in rig.sent_since(start) if r.startswith(":Mg")]
+    assert rig.model.pulsing() == (False, False)
+    assert sky.angular_separation(*before, *rig.model.position()) < 60 * ARCSEC  # only idle drift
+
+
+def test_meridian_settings_action_is_refused_in_altaz(rig: Rig) -> None:
+    start = rig.trace_length()
+    for parameters in ("", json.dumps({"limit_degrees": 5})):
+        with pytest.raises(InvalidOperationException, match="alt-az"):
+            rig.scope.Action("zwo:MeridianSettings", parameters)
+    assert not [r for r in rig.sent_since(start) if r.startswith((":STa", ":GTa"))]
+
+
+# --------------------------------------------------------------------------------------------
+# Motion: the emulator says where the mount really points
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("ha", "dec"), [(-3.0, 20.0), (2.0, 60.0), (-0.5, 10.0)])
+def test_slews_land_where_asked_and_track(rig: Rig, ha: float, dec: float) -> None:
+    scope = rig.scope
+    ra = _ra_at_ha(scope, ha)
+    scope.SlewToCoordinatesAsync(ra, dec)
+    assert scope.Slewing
+    rig.wait_slew("the slew to end")
+    # The mount lands on the target it was given within an arcsecond; that target is the request rounded
+    # to the mount's whole seconds of RA. (In EQ mode the server removes the rounding with a short guide
+    # pulse; pulses move nothing in alt-az, so here the rounding stays: at most 0.5 s of RA.)
+    assert sky.angular_separation(*rig.model.position(), *rig.model.target()) < ARCSEC
+    assert sky.angular_separation(*rig.model.position(), ra, dec) < _rounding_arcsec(dec) * ARCSEC
+    # The mount's axes are the azimuth and altitude of where it points.
+    snapshot = rig.model.snapshot()  # one instant (the emulated clock runs on)
+    assert snapshot["secondary_deg"] == pytest.approx(snapshot["alt_deg"], abs=1e-6)
+    assert sky.wrap_degrees_360(snapshot["primary_deg"]) == pytest.approx(snapshot["az_deg"], abs=1e-6)
+    assert scope.Tracking is True
+    assert sky.angular_separation(scope.RightAscension, scope.Declination, ra, dec) < _rounding_arcsec(dec) * ARCSEC
+    assert scope.SideOfPier == PierSide.pierUnknown
+
+
+def test_tracking_keeps_ra_and_dec_fixed_while_the_axes_turn(rig: Rig) -> None:
+    scope = rig.scope
+    ra, dec = _ra_at_ha(scope, -2.0), 30.0
+    scope.SlewToCoordinatesAsync(ra, dec)
+    rig.wait_slew("the slew to end")
+    truth0, axes0, t0 = rig.model.position(), rig.model.axes(), rig.mount_seconds()
+    wait_until(lambda: rig.mount_seconds() - t0 > 120.0, 60, "two minutes of mount time")
+    assert sky.angular_separation(*truth0, *rig.model.position()) < 0.1 * ARCSEC
+    axes1 = rig.model.axes()
+    assert abs(axes1[0] - axes0[0]) > 0.05 or abs(axes1[1] - axes0[1]) > 0.05  # both axes carry the star
+    assert sky.angular_separation(scope.RightAscension, scope.Declination, ra, dec) < _rounding_arcsec(dec) * ARCSEC
+    assert scope.Tracking is True
+
+
+def test_slew_to_alt_az_lands_on_that_altitude_and_azimuth(rig: Rig) -> None:
+    scope = rig.scope
+    scope.Tracking = False
+    scope.SlewToAltAzAsync(135.0, 40.0)
+    rig.wait_slew("the alt/az slew to end")
+    altitude, azimuth = rig.model.horizontal()
+    assert altitude == pytest.approx(40.0, abs=0.01)
+    assert azimuth == pytest.approx(135.0, abs=0.02)
+
+
+def test_move_axis_moves_and_stops(rig: Rig) -> None:
+    scope = rig.scope
+    scope.SlewToCoordinatesAsync(_ra_at_ha(scope, -3.0), 20.0)
+    rig.wait_slew("the slew to end")
+    before = rig.model.position()
+    scope.MoveAxis(TelescopeAxes.axisSecondary, 0.5)
+    assert scope.Slewing
+    wait_until(lambda: sky.angular_separation(*before, *rig.model.position()) > 1.0, 30, "the move to get going")
+    scope.MoveAxis(TelescopeAxes.axisSecondary, 0.0)
+    rig.wait_slew("the move to stop")
+    assert rig.model.position()[1] > before[1] + 1.0  # north, relative to the sky (field notes §5.1)
+    assert scope.Tracking is True
+
+
+# --------------------------------------------------------------------------------------------
+# Switching the mode: restart, reconnect, re-read
+# --------------------------------------------------------------------------------------------
+
+
+def test_mode_switch_warns_and_takes_effect_after_the_restart(rig: Rig) -> None:
+    """§2.8: the reply warns that the mount must be restarted; after the restart (the emulator's reboot
+    fault: power cycle and dropped connection) the server reads ``:GU#`` again on the new link."""
+    reply = json.loads(rig.scope.Action("zwo:MountMode", json.dumps({"mode": "equatorial"})))
+    assert reply["restart_required"] is True and "restarted" in reply["message"]
+    assert rig.scope.AlignmentMode == AlignmentModes.algAltAz  # not yet
+    telescope = rig.server.telescopes[0]
+    generation = telescope.mount.link.generation
+    emulator = rig.server.emulators[0]
+    assert emulator is not None
+    emulator.server.faults.reboot(0.3)
+    wait_until(lambda: telescope.mount.link.generation > generation, 30, "the link to reconnect")
+    wait_until(lambda: rig.scope.AlignmentMode == AlignmentModes.algGermanPolar, 30, "the new mode to be read")
+    assert rig.model.mode() is MountMode.EQUATORIAL
+    assert rig.scope.CanPulseGuide is True
+    assert rig.scope.SideOfPier != PierSide.pierUnknown or rig.model.pier_letter() == "N"
+
+
+def test_setup_page_mode_switch_warns(rig: Rig) -> None:
+    url = f"http://127.0.0.1:{rig.server.port}/setup/api/telescope/0/settings"
+    headers = {"Content-Type": "application/json", CSRF_HEADER: "1"}
+    view = requests.get(url, timeout=10).json()
+    assert view["mode"]["mode"] == "altaz" and view["mode"]["restart_required"] is False
+    start = rig.trace_length()
+    reply = requests.post(url, data=json.dumps({"mode": "equatorial"}), headers=headers, timeout=10)
+    assert reply.status_code == 200, reply.text
+    mode = reply.json()["mode"]
+    assert mode["mode"] == "altaz" and mode["requested"] == "equatorial" and mode["restart_required"] is True
+    assert "restarted" in mode["message"]
+    assert ":AP#" in rig.sent_since(start)
+    bad = requests.post(url, data=json.dumps({"mode": "polar"}), headers=headers, timeout=10)
+    assert bad.status_code == 400
+    rig.model.power_cycle()
+    wait_until(_mode_is(url, "equatorial"), 30, "the page to show equatorial mode")
+
+
+def _mode_is(url: str, name: str) -> Callable[[], bool]:
+    def check() -> bool:
+        mode = requests.get(url, timeout=10).json()["mode"]
+        return mode is not None and mode["mode"] == name and mode["restart_required"] is False
+
+    return check
+
+
+def test_equatorial_start_is_unchanged(server_factory: ServerFactory) -> None:
+    """The same server on an EQ-mode emulator: German polar, pulse guiding offered."""
+    rig = _rig(server_factory, mode="eq")
+    assert rig.scope.AlignmentMode == AlignmentModes.algGermanPolar
+    assert rig.scope.CanPulseGuide is True and rig.scope.CanSetRightAscensionRate is True
+    started = time.monotonic()
+    rig.scope.PulseGuide(GuideDirections.guideEast, 200)
+    assert time.monotonic() - started < 1.0
+    rig.scope.Connected = False
