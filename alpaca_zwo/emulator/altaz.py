@@ -105,8 +105,10 @@ def follow_sky(
         ha_deg, dec = ha_deg + 180.0, -180.0 - dec
     alt, az = sky.equatorial_to_horizontal(ha_deg / 15.0, dec, latitude)
     goal = (pos[RA] + wrap_180(az - pos[RA]), alt)
-    if pos[DEC] > 90.0 or (may_invert and abs(goal[RA] - pos[RA]) > vmax * dt):
+    upright = pos[DEC] <= 90.0
+    if not upright or (may_invert and abs(goal[RA] - pos[RA]) > vmax * dt):
         goal = nearest_axes(alt, az, pos[RA], pos[DEC])  # stays over the top once there
+        upright = False
     wanted = [(goal[axis] - pos[axis]) / dt for axis in (RA, DEC)]
     # Coordinated: when one axis cannot reach its speed within the step, both change speed in the
     # same proportion, so a move starts and stops along its sky path instead of curving off it.
@@ -115,3 +117,5 @@ def follow_sky(
     for axis in (RA, DEC):
         goal_speed = vel[axis] + (wanted[axis] - vel[axis]) * scale
         pos[axis], vel[axis] = ramp(pos[axis], vel[axis], goal_speed, accel, dt)
+    if upright and pos[DEC] > 90.0:  # the upright altitude stops at the zenith (no overshoot over the top)
+        pos[DEC], vel[DEC] = 90.0, 0.0
