@@ -25,6 +25,7 @@ from typing import Any
 
 from . import protocol
 from ._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
+from .firmware import has_feature
 from .link import Link, LinkStatus, Priority
 from .protocol import Direction, MeridianSettings, MountStatus, TrackingState, TrackRate
 from .sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
@@ -52,16 +53,8 @@ class MountInfo:
     firmware: str
 
     @property
-    def version(self) -> tuple[int, ...]:
-        parts = []
-        for piece in self.firmware.split("."):
-            digits = "".join(ch for ch in piece if ch.isdigit())
-            parts.append(int(digits) if digits else 0)
-        return tuple(parts)
-
-    @property
     def has_meridian_settings(self) -> bool:
-        return self.version >= (1, 2, 4)
+        return has_feature(self.firmware, "meridian_settings")
 
 
 @dataclass(frozen=True)

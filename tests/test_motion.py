@@ -19,12 +19,12 @@ import pytest
 from alpaca_zwo.config import EmulatorSettings, LimitSettings, SafetySettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.sky import SIDEREAL_DEG_S
 from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient, wait_until
 
 SPEED = 4.0
 ARCSEC = 1.0 / 3600.0
-SIDEREAL_DEG_S = 360.0 / 86164.0905
 MAX_RATE = 1440 * SIDEREAL_DEG_S  # deg/s, the highest MoveAxis rate
 
 

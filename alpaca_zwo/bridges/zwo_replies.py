@@ -49,7 +49,7 @@ from ..protocol import (
     MeridianSettings,
     MountStatus,
     ReplyKind,
-    TrackRate,
+    char_reply,
     format_azimuth,
     format_date,
     format_dms,
@@ -59,6 +59,7 @@ from ..protocol import (
     format_meridian,
     format_status,
     format_time,
+    format_tracking_rate,
     format_utc_offset,
 )
 from ..sky import SIDEREAL_DEG_S
@@ -73,7 +74,6 @@ __all__ = ["Refusal", "Session", "ZwoResponder"]
 log = logging.getLogger(__name__)
 
 #: ``:GT#`` digits in INDI's (and the V1.1 document's English) order, the emulator's default.
-GT_DIGITS = {TrackRate.SIDEREAL: "0", TrackRate.SOLAR: "1", TrackRate.LUNAR: "2"}
 #: Alpaca TrackingRate codes (DriveRates) for ``:TQ#``/``:TL#``/``:TS#``.
 DRIVE_RATE = {"TQ": 0, "TL": 1, "TS": 2}
 GUIDE_DIRECTION = {"n": 0, "s": 1, "e": 2, "w": 3}  # Telescope.pulse_guide's Direction numbers
@@ -104,10 +104,6 @@ class Session:
     speed: float = SLEW_SPEEDS[9]  # multiple of sidereal; the mount powers up at :R9#
     axis_speed: list[float | None] = field(default_factory=lambda: [None, None])  # :Rvr/:Rvd
     moved_axes: set[int] = field(default_factory=set)  # axes this program set moving
-
-
-def _ok(flag: bool) -> str:
-    return "1" if flag else "0"
 
 
 Handler = Callable[[Session, str, bool], "str | None"]
@@ -210,7 +206,7 @@ class ZwoResponder:
             "Rv": self._variable_speed(None), "Rvr": self._variable_speed(0), "Rvd": self._variable_speed(1),
             # Tracking
             **{code: self._tracking_rate(code) for code in DRIVE_RATE},
-            "GT": lambda s, a, w: GT_DIGITS[self.mount.state.tracking_rate] + "#",
+            "GT": lambda s, a, w: format_tracking_rate(self.mount.state.tracking_rate) + "#",  # INDI's digits
             "STR": lambda s, a, w: None,  # not a command on real firmware: silence
             "Te": lambda s, a, w: self._set_tracking(True), "Td": lambda s, a, w: self._set_tracking(False),
             "GAT": self._tracking_state,
@@ -226,7 +222,8 @@ class ZwoResponder:
             # Meridian and limits (read from the cached settings; their setters are guarded)
             "GTa": lambda s, a, w: self._setting_reply(
                 lambda m: format_meridian(m.meridian or MeridianSettings()) + "#", "meridian"),
-            "GLC": lambda s, a, w: self._setting_reply(lambda m: _ok(bool(m.limits_enabled)) + "#", "limits_enabled"),
+            "GLC": lambda s, a, w: self._setting_reply(
+                lambda m: char_reply(bool(m.limits_enabled)) + "#", "limits_enabled"),
             "GLH": lambda s, a, w: self._setting_reply(lambda m: f"{m.upper_limit}#", "upper_limit"),
             "GLL": lambda s, a, w: self._setting_reply(lambda m: f"{m.lower_limit}#", "lower_limit"),
             "GRl": lambda s, a, w: self._setting_reply(lambda m: "720#" if m.heavy_duty else "1440#", "heavy_duty"),
@@ -458,7 +455,7 @@ class ZwoResponder:
     def _unpark(self, _session: Session, _argument: str, _well_formed: bool) -> str:
         was_parked = self.telescope.at_park()
         self.telescope.unpark()
-        return _ok(was_parked)
+        return char_reply(was_parked)
 
     def _silently(self, action: Callable[[], object]) -> Handler:
         def handler(_session: Session, _argument: str, _well_formed: bool) -> None:
