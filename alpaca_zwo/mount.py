@@ -19,12 +19,13 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from datetime import datetime, timedelta, timezone
 from typing import Any
 
 from . import protocol
 from ._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
+from .estimator import PositionEstimator
 from .firmware import has_feature
 from .link import Link, LinkStatus, Priority
 from .protocol import Direction, MeridianSettings, MountStatus, TrackingState, TrackRate
@@ -102,91 +103,6 @@ class MountState:
     @property
     def goto_running(self) -> bool:
         return bool(self.status and self.status.slewing)
-
-
-@dataclass
-class PositionEstimator:
-    """Full-precision RA/Dec carried forward between coarse mount readings.
-
-    The estimate is an anchor plus linear motion: RA drifts at ``ra_rate`` (hours/s: zero while
-    tracking at sidereal, the sidereal rate when not tracking) and each pulse adds its known
-    displacement. A reading that disagrees with the estimate by more than the mount's own
-    resolution (plus a margin) re-anchors to the reading, so the estimate can refine the mount's
-    numbers but never contradict them.
-    """
-
-    ra_tolerance_h: float = 1.2 / 3600.0  # the mount prints whole seconds of RA
-    dec_tolerance_deg: float = 1.2 / 3600.0  # and whole arcseconds of Dec
-    anchor_ra: float | None = None
-    anchor_dec: float | None = None
-    anchor_time: float = 0.0
-    ra_rate: float = 0.0
-    dec_rate: float = 0.0  # degrees/s: a declination rate offset
-    pending: list[tuple[float, float, float, float]] = field(default_factory=list)  # start, end, dra/s, ddec/s
-
-    def predict(self, now: float) -> tuple[float, float] | None:
-        if self.anchor_ra is None or self.anchor_dec is None:
-            return None
-        ra = self.anchor_ra + self.ra_rate * (now - self.anchor_time)
-        dec = self.anchor_dec + self.dec_rate * (now - self.anchor_time)
-        for start, end, dra, ddec in self.pending:
-            span = max(0.0, min(now, end) - max(start, self.anchor_time))
-            ra += dra * span
-            dec += ddec * span
-        return ra % 24.0, dec
-
-    def _rebase(self, now: float) -> None:
-        predicted = self.predict(now)
-        if predicted is not None:
-            self.anchor_ra, self.anchor_dec = predicted
-        self.anchor_time = now
-        self.pending = [p for p in self.pending if p[1] > now]
-
-    def set_exact(self, ra: float, dec: float, now: float) -> None:
-        self.anchor_ra, self.anchor_dec, self.anchor_time = ra % 24.0, dec, now
-        self.pending = []
-
-    def set_ra_rate(self, ra_rate: float, now: float) -> None:
-        self._rebase(now)
-        self.ra_rate = ra_rate
-
-    def set_dec_rate(self, dec_rate: float, now: float) -> None:
-        self._rebase(now)
-        self.dec_rate = dec_rate
-
-    def add_motion(self, start: float, end: float, dra_per_s: float, ddec_per_s: float) -> None:
-        # Fold finished motions into the anchor first, so a night of guide pulses keeps at most the
-        # ones still running here (predict() runs on every coordinate read).
-        self._rebase(start)
-        self.pending.append((start, end, dra_per_s, ddec_per_s))
-
-    def invalidate(self) -> None:
-        self.anchor_ra = self.anchor_dec = None
-        self.pending = []
-
-    def in_motion(self, now: float) -> bool:
-        """Whether a motion the estimator carries (a guide pulse) is still running."""
-        return any(end > now for _, end, _, _ in self.pending)
-
-    def observe(self, raw_ra: float, raw_dec: float, now: float) -> tuple[float, float]:
-        predicted = self.predict(now)
-        if predicted is None:
-            self.set_exact(raw_ra, raw_dec, now)
-            return raw_ra, raw_dec
-        dra = abs((predicted[0] - raw_ra + 12.0) % 24.0 - 12.0)
-        ra_ok = dra <= self.ra_tolerance_h
-        dec_ok = abs(predicted[1] - raw_dec) <= self.dec_tolerance_deg
-        if ra_ok and dec_ok:
-            return predicted
-        # Re-anchor only the axis the reading contradicts, keeping motions still in flight (the rest
-        # of a guide pulse): a Dec correction must not move RA, nor drop the rest of a pulse.
-        self._rebase(now)
-        if not ra_ok:
-            self.anchor_ra = raw_ra
-        if not dec_ok:
-            self.anchor_dec = raw_dec
-        assert self.anchor_ra is not None and self.anchor_dec is not None
-        return self.anchor_ra % 24.0, self.anchor_dec
 
 
 SiteProvider = Callable[[], tuple[float, float]]

@@ -8,8 +8,9 @@ from datetime import datetime, timedelta, timezone
 import pytest
 
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
+from alpaca_zwo.estimator import PositionEstimator
 from alpaca_zwo.link import Link
-from alpaca_zwo.mount import Mount, MountState, PositionEstimator
+from alpaca_zwo.mount import Mount, MountState
 from alpaca_zwo.protocol import Direction, TrackRate
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 
