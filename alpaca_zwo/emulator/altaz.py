@@ -29,7 +29,9 @@ import math
 from dataclasses import dataclass
 
 from .. import sky
-from .state import DEC, RA, Slew, ramp
+from ..protocol import MountMode
+from ..sky import SIDEREAL_DEG_S
+from .state import DEC, RA, ModelBase, Slew, ramp
 
 #: Undisturbed tracking time after which a zenith transit takes the altitude over the top (mount s).
 SETTLED_S = 10.0
@@ -119,3 +121,25 @@ def follow_sky(
         pos[axis], vel[axis] = ramp(pos[axis], vel[axis], goal_speed, accel, dt)
     if upright and pos[DEC] > 90.0:  # the upright altitude stops at the zenith (no overshoot over the top)
         pos[DEC], vel[DEC] = 90.0, 0.0
+
+
+class AltAzRules(ModelBase):
+    """The alt-az parts of the model's commands (mixed into ``MountModel``; callers hold the lock)."""
+
+    def _altaz_goto(self, raw_ha: float, raw_dec: float) -> AltAzSlew:
+        """An alt-az GOTO: no pier side; the azimuth axis takes the short way round."""
+        _, az = sky.equatorial_to_horizontal(raw_ha, raw_dec, self._latitude)
+        az_ref = self._pos[RA] + ((az - self._pos[RA] + 180.0) % 360.0 - 180.0)
+        return AltAzSlew("goto", self._t, raw_ha * 15.0, SIDEREAL_DEG_S, raw_dec, sky.PierSide.WEST,
+                         latitude=self._latitude, az_ref=az_ref)
+
+    def _altaz_tracking_refusal(self) -> int | None:
+        """Why alt-az tracking cannot start: 7 time and site not set (field notes §2.4, §4.1), 10 the
+        altitude carried over the zenith; None in EQ mode or when it can."""
+        if self._mode is not MountMode.ALTAZ:
+            return None
+        if not self._initialized():
+            return 7
+        if self._pos[DEC] > 90.0 + 1e-9:
+            return 10
+        return None

@@ -40,7 +40,7 @@ from .. import sky
 from ..firmware import FirmwareVariant
 from ..protocol import SLEW_SPEEDS, MountMode, MountStatus
 from ..sky import SIDEREAL_DEG_S
-from .altaz import AltAzSlew
+from .altaz import AltAzRules
 from .clock import Clock
 from .clocksite import ClockAndSite
 from .faults import FaultEvent, Faults
@@ -78,7 +78,7 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 
 
-class MountModel(Mechanics, ClockAndSite, FlashSettings):
+class MountModel(Mechanics, ClockAndSite, FlashSettings, AltAzRules):
     """One emulated mount: thread-safe (one lock), advanced lazily to the clock on every call.
 
     Methods return plain values (bools, error codes, floats); the ``Responder`` turns them into
@@ -259,13 +259,6 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
                 p, s = raw_ha * 15.0, raw_dec
             self._start_slew(Slew("goto", self._t, p, SIDEREAL_DEG_S, s, side))
             return 0
-
-    def _altaz_goto(self, raw_ha: float, raw_dec: float) -> AltAzSlew:
-        """An alt-az GOTO: no pier side; the azimuth axis takes the short way round."""
-        _, az = sky.equatorial_to_horizontal(raw_ha, raw_dec, self._latitude)
-        az_ref = self._pos[RA] + ((az - self._pos[RA] + 180.0) % 360.0 - 180.0)
-        return AltAzSlew("goto", self._t, raw_ha * 15.0, SIDEREAL_DEG_S, raw_dec, sky.PierSide.WEST,
-                         latitude=self._latitude, az_ref=az_ref)
 
     def _start_slew(self, slew: Slew) -> None:
         self._slew = slew
@@ -484,17 +477,6 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings):
             self._track_error = None
             self._home_flag = False
             return True
-
-    def _altaz_tracking_refusal(self) -> int | None:
-        """Why alt-az tracking cannot start: 7 time and site not set (field notes §2.4, §4.1), 10 the
-        altitude carried over the zenith; None in EQ mode or when it can."""
-        if not self._altaz():
-            return None
-        if not self._initialized():
-            return 7
-        if self._pos[DEC] > 90.0 + 1e-9:
-            return 10
-        return None
 
     def tracking_off(self) -> bool:
         """``:Td#``: refused while a GOTO, home or park slew runs (ZWO v2.1)."""

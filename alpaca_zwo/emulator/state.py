@@ -173,3 +173,7 @@ class ModelBase:
     def _lst(self) -> float:
         """The mount's local sidereal time (``clocksite.ClockAndSite``)."""
         raise NotImplementedError
+
+    def _initialized(self) -> bool:
+        """Date, time and site set since power-up (``clocksite.ClockAndSite``)."""
+        raise NotImplementedError
