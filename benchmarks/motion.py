@@ -5,9 +5,10 @@ times real time), exactly as ``tests/test_motion.py`` measures it: the truth is 
 own ``MountModel.horizontal()`` / ``.position()`` read the moment the server's ``Slewing`` (polled
 over HTTP every few milliseconds) turns false, i.e. when a client would start its exposure.
 
-The targets are seeded: Alt/Az slews alternate tracking on/off, east/west of the meridian and
-short hops/long slews, so every combination is represented; coordinate slews alternate tracking
-on/off and east/west hour angles. Results: ``benchmarks/results/<stamp>-motion.json`` and ``.md``.
+The targets are seeded: Alt/Az slews cycle through every combination of tracking on/off, east/west
+of the meridian and short hops/long slews; coordinate slews alternate tracking on/off and east/west
+hour angles. Results: ``benchmarks/results/<stamp>-motion.json`` and ``.md``, and ``.log`` with the
+motion supervisor's DEBUG log (its account of each landing).
 """
 
 from __future__ import annotations
@@ -54,23 +55,25 @@ def great_circle_arcsec(lon1: float, lat1: float, lon2: float, lat2: float) -> f
     return math.degrees(math.acos(max(-1.0, min(1.0, cos)))) * 3600.0
 
 
+#: One block of Alt/Az slews: every (side, length, tracking) combination once; each short hop follows
+#: a long slew to the same side of the meridian, so it really is a hop of a few degrees.
+BLOCK = (("east", "long", True), ("east", "short", False), ("east", "long", False), ("east", "short", True),
+         ("west", "long", True), ("west", "short", False), ("west", "long", False), ("west", "short", True))
+
+
 def altaz_cases(n: int, rng: random.Random) -> list[Case]:
-    """``n`` Alt/Az targets: index bits choose tracking (1), side (2) and length (4)."""
+    """``n`` Alt/Az targets, cycling through :data:`BLOCK`."""
     cases: list[Case] = []
     alt, az = 45.0, 120.0
     for index in range(n):
-        tracking = index % 2 == 0
-        side = "east" if (index // 2) % 2 == 0 else "west"
-        length = "short" if (index // 4) % 2 == 0 else "long"
+        side, length, tracking = BLOCK[index % len(BLOCK)]
         low, high = (20.0, 160.0) if side == "east" else (200.0, 340.0)
-        if length == "short" and low <= az <= high:
-            # A hop of a few degrees from where the mount is (settling on a nearby target).
+        if length == "short":
+            # A hop of 2-12 degrees from the last target (settling on a nearby object).
             alt = min(80.0, max(20.0, alt + rng.uniform(-6.0, 6.0)))
-            az = min(high, max(low, az + rng.uniform(-10.0, 10.0)))
+            az = min(high, max(low, az + rng.choice((-1.0, 1.0)) * rng.uniform(2.0, 10.0)))
         else:
             alt, az = rng.uniform(20.0, 80.0), rng.uniform(low, high)
-            if length == "short":
-                length = "long"  # crossing to the other side is never a short hop
         cases.append(Case("altaz", round(alt, 4), round(az, 4), tracking, side, length))
     return cases
 
@@ -219,6 +222,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=13)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-motion"
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    # The supervisor's own account of every landing (aim, t*, late arrivals, corrections), to explain outliers.
+    handler = logging.FileHandler(RESULTS / f"{stamp}.log")
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    motion_log = logging.getLogger("alpaca_zwo.motion")
+    motion_log.setLevel(logging.DEBUG)
+    motion_log.addHandler(handler)
+    motion_log.propagate = False  # only into the file, not onto the console
     rng = random.Random(args.seed)
     cases = altaz_cases(args.altaz, rng) + coord_cases(args.coord, rng)
     started = time.time()
@@ -232,6 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         bench = Bench(args.speed, args.baud, Path(work))
         try:
             for index, case in enumerate(cases):
+                motion_log.debug("case %d: %s", index + 1, case)
                 try:
                     row = bench.run(case)
                 except (ReplyError, TimeoutError) as exc:
@@ -243,8 +256,6 @@ def main(argv: list[str] | None = None) -> int:
             bench.close()
     meta.update(duration_s=round(time.time() - started, 1), loadavg_end=os.getloadavg())
     results = {"meta": meta, "rows": rows}
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-motion"
     (RESULTS / f"{stamp}.json").write_text(json.dumps(results, indent=1))
     table = render(results)
     (RESULTS / f"{stamp}.md").write_text(table)
