@@ -19,6 +19,7 @@ import logging
 import math
 import os
 import random
+import shlex
 import sys
 import tempfile
 import time
@@ -75,6 +76,16 @@ def altaz_cases(n: int, rng: random.Random) -> list[Case]:
         else:
             alt, az = rng.uniform(20.0, 80.0), rng.uniform(low, high)
         cases.append(Case("altaz", round(alt, 4), round(az, 4), tracking, side, length))
+    return cases
+
+
+def explicit_cases(text: str) -> list[Case]:
+    """``"ALT,AZ,on;ALT,AZ,off"``: Alt/Az slews given by hand, e.g. to replay an outlier."""
+    cases = []
+    for item in filter(None, text.split(";")):
+        alt, az, tracking = item.split(",")
+        side = "east" if float(az) < 180.0 else "west"
+        cases.append(Case("altaz", float(alt), float(az), tracking.strip() == "on", side, "given"))
     return cases
 
 
@@ -220,6 +231,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--altaz", type=int, default=40, help="Alt/Az slews (default 40)")
     parser.add_argument("--coord", type=int, default=12, help="coordinate slews (default 12)")
     parser.add_argument("--seed", type=int, default=13)
+    parser.add_argument("--targets", default="", metavar="ALT,AZ,on|off;...",
+                        help="explicit Alt/Az slews instead of the seeded ones (to replay a case)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-motion"
@@ -232,10 +245,11 @@ def main(argv: list[str] | None = None) -> int:
     motion_log.addHandler(handler)
     motion_log.propagate = False  # only into the file, not onto the console
     rng = random.Random(args.seed)
-    cases = altaz_cases(args.altaz, rng) + coord_cases(args.coord, rng)
+    cases = (explicit_cases(args.targets) if args.targets
+             else altaz_cases(args.altaz, rng) + coord_cases(args.coord, rng))
     started = time.time()
     argv_used = sys.argv[1:] if argv is None else argv
-    meta: dict[str, Any] = {"command": " ".join(["python -m benchmarks.motion", *argv_used]),
+    meta: dict[str, Any] = {"command": shlex.join(["python", "-m", "benchmarks.motion", *argv_used]),
                             "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                             "speed": args.speed, "baud": args.baud, "seed": args.seed,
                             "loadavg_start": os.getloadavg(), "commit": _commit()}
