@@ -9,7 +9,7 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
     from tests.conformance.report import RESULTS
 
     for suite, report in RESULTS:
-        if suite == "alpacaprotocol":
+        if suite.startswith("alpacaprotocol"):
             line = f"{suite}: {report.errors} errors, {report.issues} issues, {report.infos} information"
         else:
             line = f"{suite}: {report.errors} errors, {report.issues} issues"

@@ -33,6 +33,11 @@ At 3x a hiccup must exceed about 45 ms to cost an arcsecond; at 5x 27 ms is enou
 not a server fault. The whole file runs in about three minutes. ``CONFORMU_SPEED=1`` runs ConformU at
 its true pace (about 8 minutes for the conformance run).
 
+Both runs are made twice, with the mount in equatorial mode and in alt-az mode (the built-in
+emulator started with ``[emulator] mode = "altaz"``, as after ``:AA#`` and a restart): ConformU
+itself adapts to AlignmentMode (the DestinationSideOfPier and pier-side model tests run only on a
+German mount) and to the Can* flags an alt-az mount reports (no PulseGuide, no rate offsets).
+
 The printed log lists every check like ConformU's report; the counts line is also added to pytest's
 terminal summary (tests/conformance/conftest.py).
 """
@@ -77,8 +82,34 @@ def conformu_client_id() -> Iterator[None]:
     Device._client_id = saved
 
 
-def _start(server_factory: ServerFactory, **sections: object) -> AlpacaZwoServer:
-    settings = make_settings(emulator=EmulatorSettings(speed=SPEED, baud=BAUD), **sections)
+#: The mount modes every ConformU run is made in: the emulator's flash mode at start.
+MODES = ("eq", "altaz")
+#: The conformance run in alt-az mode waits for one change in the motion package (it owns the limits):
+#: motion/limits.py ``_flip_limit`` must return None when ``:GU#`` says alt-az, since an alt-az mount has
+#: no meridian; today a MoveAxis west of the meridian is refused ("meridian limit"), which ConformU
+#: grades as an ISSUE. Strict: once the change is in, this xfail fails and must be removed.
+CONFORMANCE_MODES = ("eq", pytest.param("altaz", marks=pytest.mark.xfail(
+    strict=True, reason="motion/limits.py applies the meridian limit in alt-az mode")))
+
+
+#: ConformU contradicts itself for a mount that cannot pulse guide (alt-az mode): its conformance suite
+#: requires IsPulseGuiding to fail with NotImplemented (0x400) when CanPulseGuide is false (checklist
+#: §6.16: returning a value is an ISSUE), while its protocol suite, after each ``PUT pulseguide``,
+#: polls IsPulseGuiding through its client with no try/catch (ConformU AlpacaProtocolTestManager.cs:
+#: TestTelescope's PulseGuide step and WaitWhile; real ConformU then logs one ERROR and stops the
+#: protocol run, this reproduction logs an ISSUE per variant and goes on). No server can satisfy both;
+#: this one follows the conformance suite and the ASCOM spec. These protocol findings, and only these,
+#: are expected in alt-az mode.
+PULSE_WAIT_CONFLICT = ("PulseGuide", "Waiting for completion failed: NotImplementedException(")
+
+
+def _expected_protocol_finding(mode: str, entry: object) -> bool:
+    test, message = getattr(entry, "test", ""), getattr(entry, "message", "")
+    return mode == "altaz" and test == PULSE_WAIT_CONFLICT[0] and message.startswith(PULSE_WAIT_CONFLICT[1])
+
+
+def _start(server_factory: ServerFactory, mode: str = "eq", **sections: object) -> AlpacaZwoServer:
+    settings = make_settings(emulator=EmulatorSettings(speed=SPEED, baud=BAUD, mode=mode), **sections)
     return server_factory(settings)
 
 
@@ -91,20 +122,22 @@ def _timing_summary(timings: list[Timing]) -> str:
 
 
 @pytest.mark.timeout(540)
-def test_conformu_conformance(server_factory: ServerFactory, conformu_client_id: None) -> None:
-    """``conformu conformance http://127.0.0.1:<port>/api/v1/telescope/0`` must report 0 errors, 0 issues."""
-    server = _start(server_factory)
+@pytest.mark.parametrize("mode", CONFORMANCE_MODES)
+def test_conformu_conformance(server_factory: ServerFactory, conformu_client_id: None, mode: str) -> None:
+    """``conformu conformance http://127.0.0.1:<port>/api/v1/telescope/0`` must report 0 errors, 0 issues,
+    with the mount in equatorial and in alt-az mode."""
+    server = _start(server_factory, mode)
     clock = EmulatedClock(server.emulators[0].clock)
     client = AlpacaTelescope("127.0.0.1", server.port, 0, clock)
     alpyca = AlpycaTelescope("127.0.0.1", server.port, 0)
-    report = Report("conformance")
+    report = Report(f"conformance ({mode})")
     tester = TelescopeTester(client, alpyca, clock, report)
     try:
         tester.run()
     finally:
         client.close()
-    counts = f"conformance: {report.errors} errors, {report.issues} issues"
-    RESULTS.append(("conformance", report))
+    counts = f"conformance ({mode}): {report.errors} errors, {report.issues} issues"
+    RESULTS.append((f"conformance ({mode})", report))
     print(report.render())
     print(_timing_summary(tester.timings))
     print(f"{len(client.calls)} requests through ConformU's client; emulator speed {SPEED:g}x, line {BAUD} baud")
@@ -114,23 +147,29 @@ def test_conformu_conformance(server_factory: ServerFactory, conformu_client_id:
 
 
 @pytest.mark.timeout(300)
-def test_conformu_alpacaprotocol(server_factory: ServerFactory) -> None:
-    """``conformu alpacaprotocol``: 0 errors, 0 issues and, for a clean protocol run, 0 information messages."""
-    server = _start(server_factory)
+@pytest.mark.parametrize("mode", MODES)
+def test_conformu_alpacaprotocol(server_factory: ServerFactory, mode: str) -> None:
+    """``conformu alpacaprotocol``: 0 errors, 0 issues and, for a clean protocol run, 0 information messages,
+    in equatorial and in alt-az mode (there apart from ConformU's PulseGuide contradiction, PULSE_WAIT_CONFLICT)."""
+    server = _start(server_factory, mode)
     clock = EmulatedClock(server.emulators[0].clock)
     client = AlpacaTelescope("127.0.0.1", server.port, 0, clock)
-    report = Report("alpacaprotocol")
+    report = Report(f"alpacaprotocol ({mode})")
     tester = ProtocolTester("127.0.0.1", server.port, client, clock, report)
     try:
         tester.run()
     finally:
         client.close()
-    counts = f"alpacaprotocol: {report.errors} errors, {report.issues} issues, {report.infos} information"
-    RESULTS.append(("alpacaprotocol", report))
+    counts = f"alpacaprotocol ({mode}): {report.errors} errors, {report.issues} issues, {report.infos} information"
+    RESULTS.append((f"alpacaprotocol ({mode})", report))
     print(report.render())
     print(f"{tester.requests_sent} protocol requests; emulator speed {SPEED:g}x, line {BAUD} baud")
     print(counts)
-    assert (report.errors, report.issues, report.infos) == (0, 0, 0), (
+    conflict = [e for e in report.findings(Level.ISSUE) if _expected_protocol_finding(mode, e)]
+    if conflict:
+        print(f"{len(conflict)} of the issues are ConformU's own PulseGuide/IsPulseGuiding contradiction (see "
+              "PULSE_WAIT_CONFLICT); none other is allowed")
+    assert (report.errors, report.issues - len(conflict), report.infos) == (0, 0, 0), (
         f"{counts}\n{report.summary()}\n" + "\n".join(f"  INFO   {e.test}: {e.message}  [{e.detail}]"
                                                       for e in report.findings(Level.INFO)))
 
