@@ -272,21 +272,24 @@ class Mount:
     def push_time(self) -> None:
         """Set the mount's clock to the host's, with the zone sign the mount expects (negated).
 
-        The mount keeps whole seconds, so the command is sent on a second boundary (waiting at
-        most a second) to avoid a systematic half-second error in its sidereal time.
+        The mount keeps whole seconds and sets its clock when the ``:SL`` command has arrived, so
+        that command is timed to *arrive* on a second boundary (its bytes take 12.5 ms at 9600
+        baud), carrying that second: otherwise its sidereal time, and every Alt/Az landing with it,
+        would be off by the fraction of a second the command was late.
         """
-        now = self.clock() + self.clock_offset
-        wait = 1.0 - now.microsecond / 1e6  # mount seconds; a fast emulator's clock runs faster
-        if 0.0 < wait < 1.0:
-            time.sleep(wait / self._clock_rate)
-            now = self.clock() + self.clock_offset
-        if now.microsecond > 500_000:  # woke a hair early: the boundary is just ahead
-            now += timedelta(microseconds=1_000_000 - now.microsecond)
         offset = self._utc_offset()
-        local = now + offset
-        hours = offset.total_seconds() / 3600.0
-        self._exec(protocol.set_utc_offset(hours))
-        self._exec(protocol.set_time(local.time()))
+        self._exec(protocol.set_utc_offset(offset.total_seconds() / 3600.0))
+        transit_real = len(protocol.set_time(datetime.now().time()).wire) * 10.0 / self.link.baud \
+            if self.link.baud else 0.0
+        now = self.clock() + self.clock_offset
+        boundary = now.replace(microsecond=0) + timedelta(seconds=1)
+        wait_real = (boundary - now).total_seconds() / self._clock_rate - transit_real
+        if wait_real < 0.0:
+            boundary += timedelta(seconds=1)
+            wait_real += 1.0 / self._clock_rate
+        time.sleep(wait_real)
+        local = boundary + offset
+        self.link.execute(protocol.set_time(local.time()), Priority.COMMAND)
         self._exec(protocol.set_date(local.date()))
 
     def push_site(self, latitude: float, east_longitude: float) -> None:
@@ -439,7 +442,6 @@ class Mount:
             ddec = -speed_deg
         with self._estimator_lock:
             self._estimator.add_motion(start, end, dra, ddec)
-        self._poll_wake.set()  # poll fast while the pulse runs
         return end
 
     def set_tracking(self, on: bool, guard: Guard | None = None, not_before: float | None = None) -> None:

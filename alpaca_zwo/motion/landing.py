@@ -42,6 +42,8 @@ CORRECTION_LEAD_S = 2.5
 #: Real seconds the server needs to see an arrival (a fast poll and a supervisor tick), added to
 #: the leads above in mount time, so a fast emulator is aimed as well as a real mount.
 SEE_ARRIVAL_REAL_S = 0.6
+#: Real seconds of readings that confirm rest before a tracked landing instant (three fast polls).
+CONFIRM_REST_REAL_S = 0.8
 MAX_LANDING_ATTEMPTS = 3
 #: Residuals smaller than this (ms of guide pulse) are not worth a pulse.
 MIN_PULSE_MS = 5
@@ -63,8 +65,10 @@ class LandingMixin:
 
 
 
-    def _see_arrival(self) -> float:
-        return SEE_ARRIVAL_REAL_S * self.mount.clock_rate
+    def _see_arrival(self, landing: Landing) -> float:
+        """Mount seconds the server needs to see an arrival; with tracking on, also to confirm rest."""
+        real_s = SEE_ARRIVAL_REAL_S + (0.0 if landing.freeze else CONFIRM_REST_REAL_S)
+        return real_s * self.mount.clock_rate
 
     def _aim(self, landing: Landing, lead_s: float) -> float:
         """Pick the whole-second RA the ground point will have ``lead_s`` or a little more from now,
@@ -115,6 +119,7 @@ class LandingMixin:
         if landing.t_star - now > 0.05 * self.mount.clock_rate:
             motion.phase = Phase.LANDING
             motion.rest_from = now  # readings while it waits for t* show whether it is at rest
+            self._pulse_dec_residual(motion, landing)
             return
         if landing.attempts >= MAX_LANDING_ATTEMPTS:
             log.warning("%s: arrived too late for the landing instant %d times; landing as is",
@@ -122,8 +127,25 @@ class LandingMixin:
             self._after_arrival(motion)
             self._settle(motion, now)
             return
-        ra = self._aim(landing, CORRECTION_LEAD_S + self._see_arrival())
-        log.debug("%s: arrived %.2f s late; correcting GOTO", motion.kind.value, now - landing.t_star)
+        self._correct(motion, landing, now)
+
+    def _pulse_dec_residual(self, motion: Motion, landing: Landing) -> None:
+        """The mount took the Dec in whole arcseconds: guide the rest (a Dec pulse leaves RA alone)."""
+        d_dec = landing.dec - landing.wire[1]
+        ms = round(abs(d_dec) / (self.mount.state.guide_rate * SIDEREAL_DEG_S) * 1000.0)
+        if ms >= MIN_PULSE_MS:
+            direction = Direction.NORTH if d_dec > 0 else Direction.SOUTH
+            try:
+                self.mount.pulse_guide(direction, ms, guard=self._guard(motion.generation))
+            except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
+                log.debug("Dec residual pulse not sent: %s", exc)
+
+    def _correct(self, motion: Motion, landing: Landing, now: float) -> None:
+        """A short GOTO aimed at a new landing instant (the mount was too late for the last one)."""
+        assert landing.t_star is not None
+        log.debug("%s: %.2f s late for the landing instant; correcting GOTO", motion.kind.value,
+                  now - landing.t_star)
+        ra = self._aim(landing, CORRECTION_LEAD_S + self._see_arrival(landing))
         motion.saw_busy = False
         motion.started = self.mount.monotonic()
         wire = self.mount.goto(ra, landing.dec, guard=self._guard(motion.generation))
@@ -143,6 +165,11 @@ class LandingMixin:
         if (landing.t_star - now) / rate > 0.06:
             if motion.at_rest is None and not landing.freeze and self._at_rest(motion, now):
                 motion.at_rest = now  # tracking steadily: the slew can end at t* itself
+            return
+        if not landing.freeze and motion.at_rest is None and landing.attempts < MAX_LANDING_ATTEMPTS:
+            # Tracking on, and rest not yet confirmed: ending at t* could report a moving mount as
+            # arrived, ending later would pass the Alt/Az. Aim again at a later instant instead.
+            self._correct(motion, landing, now)
             return
         if not self._at_landing_instant(motion, landing):
             return

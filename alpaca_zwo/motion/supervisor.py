@@ -281,7 +281,8 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
             lst = self._lst()
             distance = 0.0 if here is None else sky.angular_separation(
                 sky.ra_from_hour_angle(lst, ha), dec, *here)
-            ra = self._aim(landing, SLEW_S_FIXED + distance * SLEW_S_PER_DEG + LANDING_MARGIN_S + self._see_arrival())
+            lead = SLEW_S_FIXED + distance * SLEW_S_PER_DEG + LANDING_MARGIN_S + self._see_arrival(landing)
+            ra = self._aim(landing, lead)
             self._send_goto(motion, ra, dec)
         return motion
 
