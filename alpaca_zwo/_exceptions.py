@@ -8,6 +8,9 @@ decide which ASCOM code applies; the HTTP layer only renders them.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 # DriverError numbers (0x500..0xFFF), so scripts can tell the cases apart.
 ERR_LINK = 0x500  # the mount link is down or failed
 ERR_MOUNT_REFUSED = 0x501  # the mount answered eN# or a refusal byte
@@ -113,3 +116,21 @@ class DriverError(AlpacaError):
     """Raised when the mount or its link failed to carry out a request (ASCOM 0x500 and up)."""
 
     number = 0x500
+
+
+def driver_error(what: str, exc: Exception) -> DriverError:
+    """The DriverError a client sees for a link or mount failure during ``what`` (one wording for all)."""
+    if isinstance(exc, MountReplyError):
+        return DriverError(f"{what}: the mount refused: {exc.meaning or exc.reply}", ERR_MOUNT_REFUSED)
+    if isinstance(exc, ProtocolError):
+        return DriverError(f"{what}: garbled reply from the mount: {exc}", ERR_MOUNT_PROTOCOL)
+    return DriverError(f"{what}: mount link problem: {exc}", ERR_LINK)
+
+
+@contextmanager
+def mount_errors(what: str) -> Iterator[None]:
+    """Within the block, link and mount failures become :func:`driver_error`'s DriverErrors."""
+    try:
+        yield
+    except (MountReplyError, ProtocolError, LinkError) as exc:
+        raise driver_error(what, exc) from exc

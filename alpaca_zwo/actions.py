@@ -22,22 +22,18 @@ import json
 import logging
 import math
 import weakref
-from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ._exceptions import (
     ActionNotImplemented,
     ConfigError,
-    DriverError,
     InvalidOperation,
     InvalidValue,
-    LinkError,
     MemberNotImplemented,
-    MountReplyError,
     NotConnected,
-    ProtocolError,
+    mount_errors,
 )
 from .config import Settings, settings_from_dict, settings_to_dict
 from .protocol import MeridianSettings, MountMode, MountStatus, parse_status
@@ -47,11 +43,6 @@ if TYPE_CHECKING:
     from .telescope import Telescope
 
 log = logging.getLogger(__name__)
-
-# DriverError numbers, the same as the Telescope's, so scripts tell the cases apart the same way.
-ERR_LINK = 0x500
-ERR_MOUNT_REFUSED = 0x501
-ERR_MOUNT_PROTOCOL = 0x502
 
 BUZZER_LEVELS = ("off", "low", "high")  # :SBu0# .. :SBu2#
 MODE_NAMES = {MountMode.EQUATORIAL: "equatorial", MountMode.ALTAZ: "altaz", MountMode.UNKNOWN: "unknown"}
@@ -161,19 +152,6 @@ def _save(telescope: Telescope, action: str, section: str, values: Mapping[str, 
         return telescope.store.update(change)
     except ConfigError as exc:
         raise InvalidValue(str(exc)) from None
-
-
-@contextmanager
-def _mount_errors(what: str) -> Iterator[None]:
-    """Link and mount failures become the DriverErrors the Telescope uses for the same causes."""
-    try:
-        yield
-    except MountReplyError as exc:
-        raise DriverError(f"{what}: the mount refused: {exc.meaning or exc.reply}", ERR_MOUNT_REFUSED) from exc
-    except ProtocolError as exc:
-        raise DriverError(f"{what}: garbled reply from the mount: {exc}", ERR_MOUNT_PROTOCOL) from exc
-    except LinkError as exc:
-        raise DriverError(f"{what}: mount link problem: {exc}", ERR_LINK) from exc
 
 
 # ================================================================================================
@@ -404,7 +382,7 @@ def run_action(telescope: Telescope, name: str, parameters: str) -> str:
     if not telescope.connected_clients() or not telescope.mount.running:
         raise NotConnected(f"{action.name} needs the telescope connected: set Connected=true or call Connect")
     changes = _changes(action, parameters)
-    with _mount_errors(action.name):
+    with mount_errors(action.name):
         if changes and action.write is not None:
             action.write(telescope, changes)
         reply = action.read(telescope)

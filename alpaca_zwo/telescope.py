@@ -14,8 +14,8 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from datetime import datetime, timedelta, timezone
 
 from . import __version__, sky
@@ -34,6 +34,7 @@ from ._exceptions import (
     Parked,
     ProtocolError,
     ValueNotSet,
+    mount_errors,
 )
 from .clients import ClientKey, ClientRegistry, current_client
 from .config import DeviceSettings, Settings, horizon_altitude_at
@@ -327,17 +328,10 @@ class Telescope:
         if self.motion.parked:
             raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
 
-    @contextmanager
-    def _mount_errors(self, what: str) -> Iterator[None]:
+    @staticmethod
+    def _mount_errors(what: str) -> AbstractContextManager[None]:
         """Translate link and mount failures into the DriverErrors a client should see."""
-        try:
-            yield
-        except MountReplyError as exc:
-            raise DriverError(f"{what}: the mount refused: {exc.meaning or exc.reply}", ERR_MOUNT_REFUSED) from exc
-        except ProtocolError as exc:
-            raise DriverError(f"{what}: garbled reply from the mount: {exc}", ERR_MOUNT_PROTOCOL) from exc
-        except LinkError as exc:
-            raise DriverError(f"{what}: mount link problem: {exc}", ERR_LINK) from exc
+        return mount_errors(what)
 
     # -- state -------------------------------------------------------------------------------
 

@@ -612,7 +612,7 @@ def test_every_member_answers_with_a_valid_envelope(server: AlpacaZwoServer, url
     # Property writes (values that keep the mount where it is).
     for name in ("GuideRateDeclination", "GuideRateRightAscension", "SiteElevation", "SiteLatitude",
                  "SiteLongitude", "SlewSettleTime", "TargetDeclination", "TargetRightAscension", "Tracking",
-                 "TrackingRate", "DoesRefraction"):
+                 "TrackingRate", "DoesRefraction", "DeclinationRate", "RightAscensionRate"):
         api.ok(name, **VALID_ARGS[name])
     api.ok("UTCDate", UTCDate=datetime.now(timezone.utc))
     for name in _NOT_IMPLEMENTED_PUTS:

@@ -18,6 +18,7 @@ from .._exceptions import (
 )
 from ..config import Settings, horizon_altitude_at
 from ..mount import Mount, MountState
+from ..protocol import MountMode
 from .kinds import DECELERATION_DEG_S2, TICK_S, _wrap12
 
 log = logging.getLogger(__name__)
@@ -44,7 +45,10 @@ def _normalise(ha: float, dec: float) -> tuple[float, float]:
 
 
 def _flip_limit(settings: Settings, state: MountState) -> float | None:
-    """Degrees past the meridian the normal (W) side may go, or None when the mount has none set."""
+    """Degrees past the meridian the normal (W) side may go, or None where there is no meridian limit
+    (an alt-az mount has no pier side to flip)."""
+    if state.status is not None and state.status.mode is MountMode.ALTAZ:
+        return None
     limits = settings.limits
     limit = float(limits.meridian_limit_deg)
     return limit if limit < 0.0 or limits.meridian_track_past else 0.0

@@ -37,8 +37,6 @@ from collections.abc import Callable
 from .. import sky
 from .._exceptions import (
     ERR_LINK,
-    ERR_MOUNT_PROTOCOL,
-    ERR_MOUNT_REFUSED,
     ERR_TIMEOUT,
     AlpacaError,
     AmbiguousReply,
@@ -49,6 +47,7 @@ from .._exceptions import (
     MotionCancelled,
     MountReplyError,
     ProtocolError,
+    driver_error,
 )
 from ..clients import ClientKey, ClientRegistry
 from ..config import Settings
@@ -77,15 +76,6 @@ log = logging.getLogger(__name__)
 #: Real seconds between supervisor ticks while nothing moves (a Pi at the mount idles cheaply).
 IDLE_TICK_S = 1.0
 
-
-
-def _mount_errors(what: str, exc: Exception) -> AlpacaError:
-    """The DriverError a client should see for a link or mount failure."""
-    if isinstance(exc, MountReplyError):
-        return DriverError(f"{what}: the mount refused: {exc.meaning or exc.reply}", ERR_MOUNT_REFUSED)
-    if isinstance(exc, ProtocolError):
-        return DriverError(f"{what}: garbled reply from the mount: {exc}", ERR_MOUNT_PROTOCOL)
-    return DriverError(f"{what}: mount link problem: {exc}", ERR_LINK)
 
 
 class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
@@ -154,7 +144,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
             self._stop_pending = ""
         except LinkError as exc:
             self._stop_pending = why
-            raise _mount_errors(why, exc) from exc
+            raise driver_error(why, exc) from exc
         finally:
             self._notify()
         log.info("%s: mount stopped (was %s)", why, previous.kind.value if previous else "idle")
@@ -241,7 +231,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         try:
             self.mount.stop()
         except LinkError as exc:
-            raise _mount_errors("stopping the current motion", exc) from exc
+            raise driver_error("stopping the current motion", exc) from exc
         since = self.mount.monotonic()
         self.mount.refresh()
         idle = self.mount.wait_for(
@@ -259,7 +249,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         motion.done.set()
         if isinstance(exc, MotionCancelled):
             return InvalidOperation(f"{what} cancelled: a stop arrived while it was starting")
-        return _mount_errors(what, exc)
+        return driver_error(what, exc)
 
     def goto(self, ra: float, dec: float, kind: MotionKind = MotionKind.GOTO,
              restore_tracking: bool | None = None) -> Motion:
@@ -337,7 +327,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
                         self.motion = None
                 if isinstance(exc, MotionCancelled):
                     raise InvalidOperation("MoveAxis cancelled: a stop arrived while it was starting") from exc
-                raise _mount_errors("MoveAxis", exc) from exc
+                raise driver_error("MoveAxis", exc) from exc
             with self._lock:
                 self.moves[axis] = ManualMove(rate, owner)
         self._notify()
@@ -358,7 +348,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
             except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:
                 if isinstance(exc, MotionCancelled):
                     raise InvalidOperation("PulseGuide cancelled: a stop arrived while it was starting") from exc
-                raise _mount_errors("PulseGuide", exc) from exc
+                raise driver_error("PulseGuide", exc) from exc
             with self._lock:
                 if self.generation == generation:
                     self.pulses[axis] = Pulse(direction, duration_ms - chunk,

@@ -84,12 +84,6 @@ def conformu_client_id() -> Iterator[None]:
 
 #: The mount modes every ConformU run is made in: the emulator's flash mode at start.
 MODES = ("eq", "altaz")
-#: The conformance run in alt-az mode waits for one change in the motion package (it owns the limits):
-#: motion/limits.py ``_flip_limit`` must return None when ``:GU#`` says alt-az, since an alt-az mount has
-#: no meridian; today a MoveAxis west of the meridian is refused ("meridian limit"), which ConformU
-#: grades as an ISSUE. Strict: once the change is in, this xfail fails and must be removed.
-CONFORMANCE_MODES = ("eq", pytest.param("altaz", marks=pytest.mark.xfail(
-    strict=True, reason="motion/limits.py applies the meridian limit in alt-az mode")))
 
 
 #: ConformU contradicts itself for a mount that cannot pulse guide (alt-az mode): its conformance suite
@@ -122,7 +116,7 @@ def _timing_summary(timings: list[Timing]) -> str:
 
 
 @pytest.mark.timeout(540)
-@pytest.mark.parametrize("mode", CONFORMANCE_MODES)
+@pytest.mark.parametrize("mode", MODES)
 def test_conformu_conformance(server_factory: ServerFactory, conformu_client_id: None, mode: str) -> None:
     """``conformu conformance http://127.0.0.1:<port>/api/v1/telescope/0`` must report 0 errors, 0 issues,
     with the mount in equatorial and in alt-az mode."""
