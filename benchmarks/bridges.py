@@ -24,8 +24,6 @@ import json
 import os
 import re
 import shutil
-import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -35,17 +33,12 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from tests.support.indi import IndiServer
+
 from .loads import ClientSpec, WorkerPool
 from .procs import REPO, Emulator, Proc, cycle_aligned, emulator_log_exchanges, start_alpaca_zwo, start_emulator
 
 RESULTS = Path(__file__).resolve().parent / "results"
-INDI_DEVICE = "ZWO AM5"
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
 
 
 def _until(condition: Any, timeout: float, what: str) -> None:
@@ -91,50 +84,6 @@ class StellariumFleet:
             thread.join(3.0)
 
 
-class Indi:
-    """``indiserver`` + ``indi_lx200am5`` on the shared ZWO port (as tests/bridges/test_zwo_port_indi.py)."""
-
-    def __init__(self, run_dir: Path) -> None:
-        self.port = _free_port()
-        home = run_dir / "indi-home"
-        home.mkdir(exist_ok=True)
-        self.log = (run_dir / "indiserver.err").open("wb")
-        self.proc = subprocess.Popen(["indiserver", "-p", str(self.port), "-u", f"/tmp/indiserver-{self.port}",
-                                      "indi_lx200am5"], stdout=subprocess.DEVNULL, stderr=self.log,
-                                     env=dict(os.environ, HOME=str(home)), start_new_session=True)
-
-    def get(self, *specs: str) -> dict[str, str]:
-        result = subprocess.run(["indi_getprop", "-p", str(self.port), "-t", "2",
-                                 *[f"{INDI_DEVICE}.{spec}" for spec in specs]],
-                                capture_output=True, text=True, timeout=15)
-        values = {}
-        for line in result.stdout.splitlines():
-            name, _, value = line.partition("=")
-            values[name.removeprefix(INDI_DEVICE + ".")] = value
-        return values
-
-    def set(self, spec: str) -> None:
-        subprocess.run(["indi_setprop", "-p", str(self.port), f"{INDI_DEVICE}.{spec}"], check=True,
-                       capture_output=True, timeout=15)
-
-    def connect(self, zwo_port: int) -> None:
-        _until(lambda: self.get("CONNECTION.CONNECT"), 30, "the INDI driver to start")
-        self.set(f"DEVICE_ADDRESS.ADDRESS;PORT=127.0.0.1;{zwo_port}")
-        self.set("CONNECTION.CONNECT=On")
-        _until(lambda: self.get("CONNECTION.CONNECT").get("CONNECTION.CONNECT") == "On", 30, "INDI to connect")
-        _until(lambda: "GUIDE_RATE.RATE" in self.get("GUIDE_RATE.RATE"), 30, "the driver's start-up queries")
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            os.killpg(self.proc.pid, signal.SIGTERM)  # indiserver and the driver it started (our own group)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.proc.pid, signal.SIGKILL)
-                self.proc.wait(5)
-        self.log.close()
-
-
 def _bridge_ports(proc: Proc, timeout: float = 20.0) -> tuple[int, int]:
     """The ports the server's bridges announced in its log (configured as 0: any free port)."""
     deadline = time.monotonic() + timeout
@@ -158,7 +107,7 @@ class Bench:
         self.server: Proc | None = None
         self.pool: WorkerPool | None = None
         self.fleet: StellariumFleet | None = None
-        self.indi: Indi | None = None
+        self.indi: IndiServer | None = None
         self.ports = (0, 0)
 
     def log(self, message: str) -> None:
@@ -245,7 +194,9 @@ class Bench:
         _until(lambda: self._bridge_counts()["stellarium_clients"] == 5, 10, "5 Stellarium clients")
         rows.append(self.phase("+ 5 Stellarium clients"))
         if shutil.which("indiserver") and shutil.which("indi_lx200am5"):
-            self.indi = Indi(self.run_dir)
+            home = self.run_dir / "indi-home"
+            home.mkdir(exist_ok=True)
+            self.indi = IndiServer(home)
             self.indi.connect(self.ports[1])
             rows.append(self.phase("+ 5 Stellarium + 1 INDI (indi_lx200am5)"))
             self.indi.stop()

@@ -12,13 +12,9 @@ real time, so nothing can be made synchronous.
 
 from __future__ import annotations
 
-import os
 import shutil
-import signal
-import socket
-import subprocess
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -28,78 +24,16 @@ from alpaca_zwo import sky
 from alpaca_zwo.config import EmulatorSettings, LimitSettings, SiteSettings, ZwoPortSettings
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conftest import ServerFactory, make_settings
+from tests.support import wait_until
+from tests.support.indi import IndiServer
 
 pytestmark = pytest.mark.skipif(
     shutil.which("indiserver") is None or shutil.which("indi_lx200am5") is None,
     reason="INDI (Debian package indi-bin) is not installed",
 )
 
-DEVICE = "ZWO AM5"
 SPEED = 5.0  # emulated seconds per real second: slews take seconds, long enough to abort one
 HORIZON_DEG = 20.0
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-def until(condition: Callable[[], object], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
-class Indi:
-    """An ``indiserver`` running ``indi_lx200am5``, driven with indi_setprop / indi_getprop."""
-
-    def __init__(self, home: Path) -> None:
-        self.port = _free_port()
-        env = dict(os.environ, HOME=str(home))  # the driver's config files go to a temp dir
-        # -u: its own local (abstract) socket, or a second indiserver on the machine refuses to start
-        self.proc = subprocess.Popen(["indiserver", "-p", str(self.port), "-u", f"/tmp/indiserver-{self.port}",
-                                      "indi_lx200am5"],
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
-                                     start_new_session=True)
-
-    def get(self, *specs: str) -> dict[str, str]:
-        result = subprocess.run(["indi_getprop", "-p", str(self.port), "-t", "2",
-                                 *[f"{DEVICE}.{spec}" for spec in specs]],
-                                capture_output=True, text=True, timeout=15)
-        values = {}
-        for line in result.stdout.splitlines():
-            name, _, value = line.partition("=")
-            values[name.removeprefix(DEVICE + ".")] = value
-        return values
-
-    def set(self, spec: str) -> None:
-        subprocess.run(["indi_setprop", "-p", str(self.port), f"{DEVICE}.{spec}"], check=True,
-                       capture_output=True, timeout=15)
-
-    def coords(self) -> tuple[float, float, str]:
-        values = self.get("EQUATORIAL_EOD_COORD.*", "EQUATORIAL_EOD_COORD._STATE")
-        return (float(values["EQUATORIAL_EOD_COORD.RA"]), float(values["EQUATORIAL_EOD_COORD.DEC"]),
-                values["EQUATORIAL_EOD_COORD._STATE"])
-
-    def connect(self, port: int) -> None:
-        until(lambda: self.get("CONNECTION.CONNECT"), 20, "the INDI driver to start")
-        self.set(f"DEVICE_ADDRESS.ADDRESS;PORT=127.0.0.1;{port}")
-        self.set("CONNECTION.CONNECT=On")
-        until(lambda: self.get("CONNECTION.CONNECT").get("CONNECTION.CONNECT") == "On", 20, "connection")
-        until(lambda: "GUIDE_RATE.RATE" in self.get("GUIDE_RATE.RATE"), 20, "the driver's start-up queries")
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            os.killpg(self.proc.pid, signal.SIGTERM)  # indiserver and the driver it started
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.proc.pid, signal.SIGKILL)
-                self.proc.wait(5)
 
 
 @pytest.fixture
@@ -122,8 +56,8 @@ def alpaca(server: AlpacaZwoServer) -> Iterator[AlpacaTelescope]:
 
 
 @pytest.fixture
-def indi_process(tmp_path: Path) -> Iterator[Indi]:
-    driver = Indi(tmp_path)
+def indi_process(tmp_path: Path) -> Iterator[IndiServer]:
+    driver = IndiServer(tmp_path)
     try:
         yield driver
     finally:
@@ -131,7 +65,7 @@ def indi_process(tmp_path: Path) -> Iterator[Indi]:
 
 
 @pytest.fixture
-def indi(indi_process: Indi, server: AlpacaZwoServer, alpaca: AlpacaTelescope) -> Indi:
+def indi(indi_process: IndiServer, server: AlpacaZwoServer, alpaca: AlpacaTelescope) -> IndiServer:
     indi_process.connect(server.zwo_port.port)
     return indi_process
 
@@ -142,10 +76,10 @@ def _east(alpaca: AlpacaTelescope, hours: float) -> float:
 
 
 def _slew_done(alpaca: AlpacaTelescope) -> None:
-    until(lambda: not alpaca.Slewing, 60, "the slew to end")
+    wait_until(lambda: not alpaca.Slewing, 60, "the slew to end")
 
 
-def test_indi_and_alpaca_see_each_others_gotos(indi: Indi, alpaca: AlpacaTelescope,
+def test_indi_and_alpaca_see_each_others_gotos(indi: IndiServer, alpaca: AlpacaTelescope,
                                                server: AlpacaZwoServer) -> None:
     # 1. INDI reads the server's site (pushed by the server, answered from its settings).
     values = indi.get("GEOGRAPHIC_COORD.LAT", "GEOGRAPHIC_COORD.LONG")
@@ -159,26 +93,27 @@ def test_indi_and_alpaca_see_each_others_gotos(indi: Indi, alpaca: AlpacaTelesco
     alpaca.SlewToCoordinatesAsync(*target)
     _slew_done(alpaca)
     # :GR# has whole seconds of RA: up to 7.5" at the equator.
-    until(lambda: sky.angular_separation(*indi.coords()[:2], *target) < 10 / 3600, 20, "INDI to see Alpaca's slew")
+    wait_until(lambda: sky.angular_separation(*indi.coords()[:2], *target) < 10 / 3600, 20, "INDI to see Alpaca's slew")
 
     # 3. INDI's GOTO: Alpaca sees Slewing, then the mount at INDI's target, tracking.
     target = (_east(alpaca, 2.0), 30.0)
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={target[0]};{target[1]}")
-    until(lambda: alpaca.Slewing, 10, "Alpaca to see INDI's GOTO")
+    wait_until(lambda: alpaca.Slewing, 10, "Alpaca to see INDI's GOTO")
     _slew_done(alpaca)
     assert sky.angular_separation(alpaca.RightAscension, alpaca.Declination, *target) < 10 / 3600  # INDI's :Sr
     assert alpaca.Tracking
-    until(lambda: indi.coords()[2] == "Ok", 20, "INDI to see its GOTO end")
+    wait_until(lambda: indi.coords()[2] == "Ok", 20, "INDI to see its GOTO end")
 
 
-def test_an_abort_from_either_side_stops_both(indi: Indi, alpaca: AlpacaTelescope, server: AlpacaZwoServer) -> None:
+def test_an_abort_from_either_side_stops_both(indi: IndiServer, alpaca: AlpacaTelescope,
+                                               server: AlpacaZwoServer) -> None:
     # INDI's abort stops Alpaca's slew.
     far = (_east(alpaca, 3.0), 10.0)
     alpaca.SlewToCoordinatesAsync(*far)
-    until(lambda: alpaca.Slewing, 5, "Alpaca's slew to start")
+    wait_until(lambda: alpaca.Slewing, 5, "Alpaca's slew to start")
     indi.set("TELESCOPE_ABORT_MOTION.ABORT=On")
-    until(lambda: not alpaca.Slewing, 10, "INDI's abort to stop Alpaca's slew")
+    wait_until(lambda: not alpaca.Slewing, 10, "INDI's abort to stop Alpaca's slew")
     assert sky.angular_separation(alpaca.RightAscension, alpaca.Declination, *far) > 5.0
 
     # Alpaca's abort stops INDI's GOTO: INDI sees the mount stopped short of its target.
@@ -186,29 +121,29 @@ def test_an_abort_from_either_side_stops_both(indi: Indi, alpaca: AlpacaTelescop
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={far[0]};{far[1]}")
     model = server.emulators[0].model  # slewing once the mount has taken :MS# (INDI's reply is on its way)
-    until(model.slewing, 10, "INDI's GOTO to be under way")
+    wait_until(model.slewing, 10, "INDI's GOTO to be under way")
     alpaca.AbortSlew()
-    until(lambda: not alpaca.Slewing, 5, "Alpaca's abort to stop INDI's GOTO")
-    until(lambda: indi.coords()[2] != "Busy", 20, "INDI to see its GOTO end")
+    wait_until(lambda: not alpaca.Slewing, 5, "Alpaca's abort to stop INDI's GOTO")
+    wait_until(lambda: indi.coords()[2] != "Busy", 20, "INDI to see its GOTO end")
     ra, dec, _ = indi.coords()
     assert sky.angular_separation(ra, dec, *far) > 5.0
     assert abs(dec - alpaca.Declination) < 2 / 3600  # both see it where it stopped (RA drifts untracked)
 
 
-def test_indi_goto_below_the_configured_horizon_is_refused(indi: Indi, alpaca: AlpacaTelescope,
+def test_indi_goto_below_the_configured_horizon_is_refused(indi: IndiServer, alpaca: AlpacaTelescope,
                                                            server: AlpacaZwoServer) -> None:
     before = (alpaca.RightAscension, alpaca.Declination)
     low = (_east(alpaca, 0.0), round(HORIZON_DEG - 10.0 - (90.0 - alpaca.SiteLatitude), 3))  # 10 deg too low
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={low[0]};{low[1]}")
-    until(lambda: indi.coords()[2] == "Alert", 20, "INDI to report the refusal")
+    wait_until(lambda: indi.coords()[2] == "Alert", 20, "INDI to report the refusal")
     refusal = server.zwo_port.status()["last_refusal"]
     assert refusal["command"] == ":MS#" and "horizon" in refusal["reason"]
     assert not alpaca.Slewing
     assert sky.angular_separation(alpaca.RightAscension, alpaca.Declination, *before) < 0.1
 
 
-def test_indi_guiding_moves_the_mount_as_alpaca_reads_it(indi: Indi, alpaca: AlpacaTelescope,
+def test_indi_guiding_moves_the_mount_as_alpaca_reads_it(indi: IndiServer, alpaca: AlpacaTelescope,
                                                          server: AlpacaZwoServer) -> None:
     alpaca.SlewToCoordinatesAsync(_east(alpaca, -2.0), 40.0)
     _slew_done(alpaca)
@@ -217,26 +152,26 @@ def test_indi_guiding_moves_the_mount_as_alpaca_reads_it(indi: Indi, alpaca: Alp
     dec_before = alpaca.Declination
     indi.set("TELESCOPE_TIMED_GUIDE_NS.TIMED_GUIDE_N;TIMED_GUIDE_S=1000;0")
     expected = rate_arcsec_s * SPEED
-    until(lambda: (alpaca.Declination - dec_before) * 3600 > 0.6 * expected, 10, "the north guide")
-    until(lambda: not alpaca.Slewing and not alpaca.IsPulseGuiding, 10, "the guide to end")
+    wait_until(lambda: (alpaca.Declination - dec_before) * 3600 > 0.6 * expected, 10, "the north guide")
+    wait_until(lambda: not alpaca.Slewing and not alpaca.IsPulseGuiding, 10, "the guide to end")
     moved = (alpaca.Declination - dec_before) * 3600
     assert 0.6 * expected < moved < 1.6 * expected
     # West: RA falls by the same angle (in seconds of time, over cos Dec for the sky angle).
     ra_before = alpaca.RightAscension
     indi.set("TELESCOPE_TIMED_GUIDE_WE.TIMED_GUIDE_W;TIMED_GUIDE_E=1000;0")
-    until(lambda: sky.wrap_hours_12(ra_before - alpaca.RightAscension) * 3600 * 15 > 0.6 * expected, 10,
+    wait_until(lambda: sky.wrap_hours_12(ra_before - alpaca.RightAscension) * 3600 * 15 > 0.6 * expected, 10,
           "the west guide")
-    until(lambda: not alpaca.Slewing, 10, "the west guide to end")
+    wait_until(lambda: not alpaca.Slewing, 10, "the west guide to end")
     # With INDI's pulse command (:Mgs1000#) the mount times the pulse itself: 1 s of mount time.
     indi.set("Use Pulse Cmd.On=On")
     dec_before = alpaca.Declination
     indi.set("TELESCOPE_TIMED_GUIDE_NS.TIMED_GUIDE_N;TIMED_GUIDE_S=0;1000")
-    until(lambda: (dec_before - alpaca.Declination) * 3600 > 0.6 * rate_arcsec_s, 10, "the south pulse")
-    until(lambda: not alpaca.IsPulseGuiding, 10, "the pulse to end")
+    wait_until(lambda: (dec_before - alpaca.Declination) * 3600 > 0.6 * rate_arcsec_s, 10, "the south pulse")
+    wait_until(lambda: not alpaca.IsPulseGuiding, 10, "the pulse to end")
     assert (dec_before - alpaca.Declination) * 3600 < 1.6 * rate_arcsec_s
 
 
-def test_indi_polling_adds_no_serial_traffic(indi_process: Indi, server: AlpacaZwoServer,
+def test_indi_polling_adds_no_serial_traffic(indi_process: IndiServer, server: AlpacaZwoServer,
                                              alpaca: AlpacaTelescope) -> None:
     emulator = server.emulators[0].server
     window = 6.0
@@ -246,7 +181,7 @@ def test_indi_polling_adds_no_serial_traffic(indi_process: Indi, server: AlpacaZ
         time.sleep(window)  # a measurement window, not a wait for an event
         return emulator.stats()["total"]["exchanges"] - start
 
-    until(lambda: server.telescopes[0].mount.state.position_time is not None, 10, "the first poll")
+    wait_until(lambda: server.telescopes[0].mount.state.position_time is not None, 10, "the first poll")
     without = exchanges_over_window()
     indi_process.connect(server.zwo_port.port)
     bridge = server.zwo_port.status

@@ -12,11 +12,7 @@ once a second in real time, so nothing can be made synchronous.
 
 from __future__ import annotations
 
-import os
 import shutil
-import signal
-import socket
-import subprocess
 from collections.abc import Iterator
 from datetime import datetime, timezone
 from pathlib import Path
@@ -26,6 +22,7 @@ import pytest
 from alpaca_zwo import sky
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from tests.support import wait_until
+from tests.support.indi import IndiServer
 
 
 @pytest.fixture(autouse=True)
@@ -34,57 +31,7 @@ def _indi_installed() -> None:
     if shutil.which("indiserver") is None or shutil.which("indi_lx200am5") is None:
         pytest.fail("INDI is not installed: apt-get install indi-bin (scripts/run-tests does)")
 
-DEVICE = "ZWO AM5"
 SPEED = 10.0  # emulated seconds per real second: slews finish quickly, INDI polls at 1 Hz real time
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-class Indi:
-    """An ``indiserver`` running ``indi_lx200am5``, driven with indi_setprop / indi_getprop."""
-
-    def __init__(self, home: Path) -> None:
-        self.port = _free_port()
-        env = dict(os.environ, HOME=str(home))  # the driver's config files go to a temp dir
-        self.proc = subprocess.Popen(
-            # -u: its own local socket, so suites running side by side cannot collide on /tmp/indiserver
-            ["indiserver", "-p", str(self.port), "-u", str(home / "indiserver.sock"), "indi_lx200am5"],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            env=env,
-            start_new_session=True,
-        )
-
-    def get(self, *specs: str) -> dict[str, str]:
-        result = subprocess.run(
-            ["indi_getprop", "-p", str(self.port), "-t", "2", *[f"{DEVICE}.{spec}" for spec in specs]],
-            capture_output=True,
-            text=True,
-            timeout=15,
-        )
-        values = {}
-        for line in result.stdout.splitlines():
-            name, _, value = line.partition("=")
-            values[name.removeprefix(DEVICE + ".")] = value
-        return values
-
-    def set(self, spec: str) -> None:
-        subprocess.run(
-            ["indi_setprop", "-p", str(self.port), f"{DEVICE}.{spec}"], check=True, capture_output=True, timeout=15
-        )
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            os.killpg(self.proc.pid, signal.SIGTERM)  # indiserver and the driver it started
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.proc.pid, signal.SIGKILL)
-                self.proc.wait(5)
 
 
 @pytest.fixture
@@ -102,29 +49,16 @@ def emulator(mount_model: MountModel) -> Iterator[EmulatorServer]:
 
 
 @pytest.fixture
-def indi(tmp_path: Path, emulator: EmulatorServer) -> Iterator[Indi]:
-    driver = Indi(tmp_path)
+def indi(tmp_path: Path, emulator: EmulatorServer) -> Iterator[IndiServer]:
+    driver = IndiServer(tmp_path)
     try:
-        wait_until(lambda: driver.get("CONNECTION.CONNECT"), 20, "the INDI driver to start")
-        driver.set(f"DEVICE_ADDRESS.ADDRESS;PORT=127.0.0.1;{emulator.port}")
-        driver.set("CONNECTION.CONNECT=On")
-        wait_until(lambda: driver.get("CONNECTION.CONNECT").get("CONNECTION.CONNECT") == "On", 20, "connection")
-        wait_until(lambda: "GUIDE_RATE.RATE" in driver.get("GUIDE_RATE.RATE"), 20, "the driver's start-up queries")
+        driver.connect(emulator.port)
         yield driver
     finally:
         driver.stop()
 
 
-def _coords(indi: Indi) -> tuple[float, float, str]:
-    values = indi.get("EQUATORIAL_EOD_COORD.*", "EQUATORIAL_EOD_COORD._STATE")
-    return (
-        float(values["EQUATORIAL_EOD_COORD.RA"]),
-        float(values["EQUATORIAL_EOD_COORD.DEC"]),
-        values["EQUATORIAL_EOD_COORD._STATE"],
-    )
-
-
-def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer, mount_model: MountModel) -> None:
+def test_indi_lx200am5_drives_the_emulator(indi: IndiServer, emulator: EmulatorServer, mount_model: MountModel) -> None:
     model = mount_model
     # 1. It read the power-up state: home at the pole, factory site, guide rate.
     assert emulator.stats()["total"]["exchanges"] > 10
@@ -133,7 +67,7 @@ def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer,
     assert float(values["GEOGRAPHIC_COORD.LONG"]) == pytest.approx(120.7197, abs=1e-3)  # sign handled
     assert float(values["GUIDE_RATE.RATE"]) == 0.5
     assert values["TELESCOPE_TRACK_STATE.TRACK_OFF"] == "On"
-    ra, dec, _ = _coords(indi)
+    ra, dec, _ = indi.coords()
     assert dec == 90.0
     assert sky.wrap_hours_12(ra - model.position()[0]) == pytest.approx(0.0, abs=0.01)
 
@@ -155,9 +89,9 @@ def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer,
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={target_ra};40")
     wait_until(model.slewing, 10, "the slew to start")
-    wait_until(lambda: not model.slewing() and _coords(indi)[2] == "Ok", 60, "the slew to end in INDI")
+    wait_until(lambda: not model.slewing() and indi.coords()[2] == "Ok", 60, "the slew to end in INDI")
     assert sky.angular_separation(*model.position(), *model.target()) < 1 / 3600
-    ra, dec, _ = _coords(indi)
+    ra, dec, _ = indi.coords()
     assert sky.wrap_hours_12(ra - target_ra) == pytest.approx(0.0, abs=2 / 3600)
     assert dec == pytest.approx(40.0, abs=1 / 3600)
     values = indi.get("TELESCOPE_TRACK_STATE.TRACK_ON", "TELESCOPE_PIER_SIDE.PIER_WEST")
@@ -191,4 +125,4 @@ def test_indi_lx200am5_drives_the_emulator(indi: Indi, emulator: EmulatorServer,
     assert model.pier_letter() == "N"
     assert model.tracking_state() == (False, None)
     assert indi.get("TELESCOPE_TRACK_STATE.TRACK_OFF")["TELESCOPE_TRACK_STATE.TRACK_OFF"] == "On"
-    assert _coords(indi)[1] == 90.0
+    assert indi.coords()[1] == 90.0
