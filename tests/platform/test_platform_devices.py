@@ -23,6 +23,7 @@ import pytest
 import requests
 
 from alpaca_zwo.emulator import EmulatorServer, FirmwareVariant, MountModel, ScaledClock
+from tests.support.emulator import OutputLines
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-m", "alpaca_zwo"]
@@ -104,18 +105,9 @@ def test_device_auto_finds_the_emulated_mount_and_serves_it(ports: dict, tmp_pat
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=REPO_ROOT)
     try:
         assert proc.stdout is not None
-        seen = []
-        port = None
-        deadline = time.monotonic() + 30
-        while port is None and time.monotonic() < deadline:
-            line = proc.stdout.readline()
-            if not line:
-                break
-            seen.append(line)
-            if "Alpaca API:" in line:
-                port = int(line.split("127.0.0.1:")[1].split("/")[0])
-        assert port is not None, "".join(seen)
-        assert f"found the mount at {ports['mount']}" in "".join(seen)
+        output = OutputLines(proc.stdout)  # read with a deadline: a silent child cannot hang the test
+        port = int(output.expect(r"Alpaca API:\s+http://127\.0\.0\.1:(\d+)/", 30).group(1))
+        assert any(f"found the mount at {ports['mount']}" in line for line in output.seen), output.seen
         base = f"http://127.0.0.1:{port}/api/v1/telescope/0"
         assert requests.put(f"{base}/connected", data={"Connected": "true"}, timeout=10).json()["ErrorNumber"] == 0
         reply = requests.get(f"{base}/declination", timeout=10).json()

@@ -13,11 +13,12 @@ import shlex
 import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 import requests
+
+from tests.support.emulator import OutputLines
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-m", "alpaca_zwo"]
@@ -48,16 +49,8 @@ def _serves(cmd: list[str]) -> None:
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd="/")
     try:
         assert proc.stdout is not None
-        seen, port = [], None
-        deadline = time.monotonic() + 30
-        while port is None and time.monotonic() < deadline:
-            line = proc.stdout.readline()
-            if not line:
-                break
-            seen.append(line)
-            if "Alpaca API:" in line:
-                port = int(line.split("127.0.0.1:")[1].split("/")[0])
-        assert port is not None, "".join(seen)
+        output = OutputLines(proc.stdout)  # read with a deadline: a silent child cannot hang the test
+        port = int(output.expect(r"Alpaca API:\s+http://127\.0\.0\.1:(\d+)/", 30).group(1))
         assert requests.get(f"http://127.0.0.1:{port}/management/apiversions", timeout=5).json()["Value"] == [1]
     finally:
         proc.terminate()
