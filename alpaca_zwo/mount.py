@@ -279,7 +279,7 @@ class Mount:
         """
         offset = self._utc_offset()
         self._exec(protocol.set_utc_offset(offset.total_seconds() / 3600.0))
-        transit_real = len(protocol.set_time(datetime.now().time()).wire) * 10.0 / self.link.baud \
+        transit_real = len(protocol.set_time(datetime.min.time()).wire) * 10.0 / self.link.baud \
             if self.link.baud else 0.0
         now = self.clock() + self.clock_offset
         boundary = now.replace(microsecond=0) + timedelta(seconds=1)

@@ -15,7 +15,6 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from contextlib import AbstractContextManager
 from datetime import datetime, timedelta, timezone
 
 from . import __version__, sky
@@ -177,7 +176,7 @@ class Telescope:
                 "set server.allow_raw_commands = true to enable them"
             )
         self._require_connected()
-        with self._mount_errors("raw command"):
+        with mount_errors("raw command"):
             return self.mount.raw(command)
 
     def command_blind(self, command: str, raw: bool) -> None:
@@ -268,7 +267,7 @@ class Telescope:
 
     def set_meridian_settings(self, meridian: MeridianSettings) -> None:
         """Write the mount's meridian behaviour and remember it: DestinationSideOfPier depends on it."""
-        with self._mount_errors("setting the meridian behaviour"):
+        with mount_errors("setting the meridian behaviour"):
             self.mount.set_meridian(meridian)
         self._meridian = meridian
 
@@ -328,11 +327,6 @@ class Telescope:
         if self.motion.parked:
             raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
 
-    @staticmethod
-    def _mount_errors(what: str) -> AbstractContextManager[None]:
-        """Translate link and mount failures into the DriverErrors a client should see."""
-        return mount_errors(what)
-
     # -- state -------------------------------------------------------------------------------
 
     def _state(self) -> MountState:
@@ -388,7 +382,7 @@ class Telescope:
                 f"UTCDate {value.isoformat()} is outside 2000-2099, the years the mount's clock can hold")
         self._utc_offset = value - self.clock()
         log.info("UTCDate set: clock offset now %.3f s", self._utc_offset.total_seconds())
-        with self._mount_errors("setting the mount clock"):
+        with mount_errors("setting the mount clock"):
             self.mount.clock_offset = self._utc_offset
             self.mount.push_time()
 
@@ -401,7 +395,7 @@ class Telescope:
         if value:
             self._require_unparked("Tracking=true")
         try:
-            with self._mount_errors("setting tracking"):
+            with mount_errors("setting tracking"):
                 self.mount.set_tracking(value)
         except DriverError as exc:
             self.mount.refresh()
@@ -422,7 +416,7 @@ class Telescope:
         if value not in DRIVE_RATES:
             raise InvalidValue(f"TrackingRate {value} is not supported; use 0 (sidereal), 1 (lunar) or 2 (solar)")
         self._require_connected()
-        with self._mount_errors("setting the tracking rate"):
+        with mount_errors("setting the tracking rate"):
             self.mount.set_tracking_rate(DRIVE_RATES[value])
         if DRIVE_RATES[value] is not TrackRate.SIDEREAL:  # offsets exist only on sidereal (Platform 7)
             self._ra_rate = self._dec_rate = 0.0
@@ -650,7 +644,7 @@ class Telescope:
                 f"({0.1 * SIDEREAL_DEG_S:.6f} to {0.9 * SIDEREAL_DEG_S:.6f} deg/s)"
             )
         self._require_connected()
-        with self._mount_errors("setting the guide rate"):
+        with mount_errors("setting the guide rate"):
             self.mount.set_guide_rate(min(0.9, max(0.1, round(fraction, 2))))
 
     def set_guide_rate_declination(self, value: float) -> None:
@@ -687,7 +681,7 @@ class Telescope:
         site = dataclasses.replace(self.settings.site, **changes)
         self.store.update(lambda s: dataclasses.replace(s, site=site))
         if self.mount.running and ("latitude" in changes or "longitude" in changes):
-            with self._mount_errors("setting the site"):
+            with mount_errors("setting the site"):
                 self.mount.push_site(site.latitude, site.longitude)
 
     # -- targets -------------------------------------------------------------------------------
@@ -840,7 +834,7 @@ class Telescope:
             # Already there: a sync would change nothing, and near the pole the mount refuses it (e11).
             self.mount.sync_estimate(ra, dec)
             return
-        with self._mount_errors("sync"):
+        with mount_errors("sync"):
             self.mount.sync(ra, dec)
 
     # -- home, park ----------------------------------------------------------------------------

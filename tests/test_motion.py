@@ -90,10 +90,6 @@ def _altaz_error_arcsec(got: tuple[float, float], alt: float, az: float) -> floa
     return _sky_error_arcsec((got[1] / 15.0, got[0]), (az / 15.0, alt))
 
 
-def _tracking_off_and_idle(api: Api) -> None:
-    api.ok("Tracking", Tracking=False)
-
-
 # -- 1. Slewing stays true until the mount is at rest ------------------------------------------
 
 

@@ -120,10 +120,6 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
     def pulse_guiding(self) -> bool:
         return bool(self.pulses)
 
-    def busy_with(self) -> str:
-        motion = self.motion
-        return motion.kind.value if motion is not None else ""
-
     # -- stops (no lock held across I/O; never waits) ------------------------------------------
 
     def abort(self, why: str = "AbortSlew") -> None:
