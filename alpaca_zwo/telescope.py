@@ -13,7 +13,6 @@ import dataclasses
 import logging
 import math
 import threading
-import time
 from collections.abc import Callable
 from datetime import datetime, timedelta, timezone
 
@@ -26,23 +25,19 @@ from ._exceptions import (
     DriverError,
     InvalidOperation,
     InvalidValue,
-    LinkError,
     MemberNotImplemented,
-    MountReplyError,
-    NotConnected,
-    Parked,
-    ProtocolError,
     ValueNotSet,
     mount_errors,
 )
 from .clients import ClientKey, ClientRegistry, current_client
 from .config import DeviceSettings, Settings, horizon_altitude_at
 from .motion import Motion, MotionKind, MotionSupervisor
-from .motion.offsets import MAX_OFFSET_ARCSEC, ra_rate_to_arcsec
 from .mount import Mount, MountState
-from .protocol import SLEW_SPEEDS, Direction, MeridianSettings, MountMode, TrackRate
-from .sky import SIDEREAL_DEG_S, PierSide
+from .protocol import Direction, MeridianSettings, MountMode, TrackRate
+from .sky import PierSide
 from .store import SettingsStore
+from .telescope_caps import AXIS_MIN_DEG_S, CapabilitiesMixin
+from .telescope_connection import ConnectionMixin
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +51,6 @@ MOUNT_EPOCH_LAST = datetime(2099, 12, 30, tzinfo=timezone.utc)
 DRIVE_RATES = {0: TrackRate.SIDEREAL, 1: TrackRate.LUNAR, 2: TrackRate.SOLAR}
 RATE_CODES = {rate: code for code, rate in DRIVE_RATES.items()}
 GUIDE_DIRECTIONS = {0: Direction.NORTH, 1: Direction.SOUTH, 2: Direction.EAST, 3: Direction.WEST}
-AXIS_MIN_DEG_S = SLEW_SPEEDS[0] * SIDEREAL_DEG_S  # 0.25x sidereal
 
 
 
@@ -64,7 +58,7 @@ def _utc(t: datetime) -> datetime:
     return t.astimezone(timezone.utc) if t.tzinfo else t.replace(tzinfo=timezone.utc)
 
 
-class Telescope:
+class Telescope(ConnectionMixin, CapabilitiesMixin):
     """One Alpaca telescope device (the handlers named in ``alpaca/device.py``)."""
 
     interface_version_value = 4
@@ -190,142 +184,6 @@ class Telescope:
 
     def command_string(self, command: str, raw: bool) -> str:
         return self._raw(command).rstrip("#")
-
-    # -- connection (reference-counted across clients) ---------------------------------------
-
-    def _caller(self) -> ClientKey:
-        return current_client.get() or ClientKey("internal", 0)
-
-    def connected(self) -> bool:
-        key = current_client.get()
-        with self._clients_lock:
-            has_client = bool(self._clients) if key is None else key in self._clients
-        return has_client and self._device_up()
-
-    def _device_up(self) -> bool:
-        if not self.mount.running:
-            return False
-        status = self.mount.link.status
-        return status.connected or time.time() - status.since < self.link_grace_s
-
-    def set_connected(self, value: bool) -> None:
-        key = self._caller()
-        if value:
-            self._open_mount()
-            with self._clients_lock:
-                self._clients.add(key)
-                self._cancel_linger()
-            log.info("client %s connected (%d connected)", key, len(self._clients))
-        else:
-            self._release(key)
-
-    def connect(self) -> None:
-        key = self._caller()
-        with self._clients_lock:
-            if self._connecting:
-                return
-            self._connecting = True
-
-        def run() -> None:
-            try:
-                self._open_mount()
-                with self._clients_lock:
-                    self._clients.add(key)
-                    self._cancel_linger()
-            except AlpacaError as exc:
-                log.error("connect failed: %s", exc.message)
-            finally:
-                with self._clients_lock:
-                    self._connecting = False
-
-        threading.Thread(target=run, name="telescope-connect", daemon=True).start()
-
-    def disconnect(self) -> None:
-        self._release(self._caller())
-
-    def connecting(self) -> bool:
-        return self._connecting
-
-    def _open_mount(self) -> None:
-        with self._lock:
-            if self.mount.running:
-                return
-            try:
-                self.mount.connect()
-            except (LinkError, ProtocolError, MountReplyError) as exc:
-                raise DriverError(f"cannot connect to the mount at {self.mount.link.url}: {exc}", ERR_LINK) from exc
-            self._load_mount_settings()
-
-    def connected_clients(self) -> frozenset[ClientKey]:
-        """Who holds the device connected (the setup page lists them)."""
-        with self._clients_lock:
-            return frozenset(self._clients)
-
-    def _configured_meridian(self) -> MeridianSettings:
-        limits = self.settings.limits
-        return MeridianSettings(False, limits.meridian_track_past, round(limits.meridian_limit_deg))
-
-    def set_meridian_settings(self, meridian: MeridianSettings) -> None:
-        """Write the mount's meridian behaviour and remember it: DestinationSideOfPier depends on it."""
-        with mount_errors("setting the meridian behaviour"):
-            self.mount.set_meridian(meridian)
-        self._meridian = meridian
-
-    def _load_mount_settings(self) -> None:
-        """The configuration is the single source of truth: a replaced or reset mount gets it back."""
-        settings = self.mount.read_settings()
-        wanted = self._configured_meridian()
-        if settings.meridian is not None:
-            self._meridian = settings.meridian
-            if settings.meridian != wanted:
-                try:
-                    self.set_meridian_settings(wanted)
-                    log.info("mount meridian setting %s replaced by the configured %s", settings.meridian, wanted)
-                except DriverError as exc:
-                    log.warning("could not apply the configured meridian setting: %s", exc.message)
-        try:
-            self.mount.set_tracking_rate(TrackRate.SIDEREAL)  # "start up with a known tracking rate"
-        except (LinkError, ProtocolError) as exc:
-            log.warning("could not select the sidereal rate: %s", exc)
-
-    def _release(self, key: ClientKey) -> None:
-        with self._clients_lock:
-            self._clients.discard(key)
-            remaining = len(self._clients)
-        if remaining == 0 and self.mount.running:
-            self.motion.stop_manual("the last client disconnected")
-            with self._clients_lock:
-                if not self._clients:
-                    self._cancel_linger()
-                    timer = threading.Timer(self.linger_s, self._linger_expired)
-                    timer.daemon = True
-                    self._linger_timer = timer
-                    timer.start()
-        log.info("client %s disconnected (%d still connected)", key, remaining)
-
-    def _cancel_linger(self) -> None:
-        if self._linger_timer is not None:
-            self._linger_timer.cancel()
-            self._linger_timer = None
-
-    def _linger_expired(self) -> None:
-        with self._lock:
-            with self._clients_lock:
-                if self._clients or self.motion.motion is not None:
-                    return
-            log.info("no client for %.0f s: closing the mount link", self.linger_s)
-            self.mount.disconnect()
-
-    def _require_connected(self) -> None:
-        """The device is connected while at least one client holds it (the link may linger longer)."""
-        with self._clients_lock:
-            held = bool(self._clients)
-        if not held or not self.mount.running:
-            raise NotConnected("the telescope is not connected: set Connected=true or call Connect first")
-
-    def _require_unparked(self, what: str) -> None:
-        if self.motion.parked:
-            raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
 
     # -- state -------------------------------------------------------------------------------
 
@@ -509,180 +367,6 @@ class Telescope:
             ("UTCDate", self.utc_now()),
             ("TimeStamp", stamp),
         ]
-
-    # -- capabilities ------------------------------------------------------------------------
-
-    def can_find_home(self) -> bool:
-        return True
-
-    def can_park(self) -> bool:
-        return True
-
-    def can_unpark(self) -> bool:
-        return True
-
-    def can_set_park(self) -> bool:
-        return True
-
-    def can_pulse_guide(self) -> bool:
-        return not self._altaz_mode()  # guide pulses move nothing in alt-az (field notes §2.5)
-
-    def can_set_guide_rates(self) -> bool:
-        return True
-
-    def can_set_tracking(self) -> bool:
-        return True
-
-    def can_slew(self) -> bool:
-        return True
-
-    def can_slew_async(self) -> bool:
-        return True
-
-    def can_slew_alt_az(self) -> bool:
-        return True
-
-    def can_slew_alt_az_async(self) -> bool:
-        return True
-
-    def can_sync(self) -> bool:
-        return True
-
-    def can_sync_alt_az(self) -> bool:
-        return True
-
-    def can_set_pier_side(self) -> bool:
-        return False
-
-    def can_set_declination_rate(self) -> bool:
-        return not self._altaz_mode()  # offsets are guide pulses, which move nothing in alt-az
-
-    def can_set_right_ascension_rate(self) -> bool:
-        return not self._altaz_mode()
-
-    def can_move_axis(self, axis: int) -> bool:
-        if axis not in (0, 1, 2):
-            raise InvalidValue(f"axis {axis} does not exist; axes are 0 (RA), 1 (Dec) and 2 (none on this mount)")
-        return axis in (0, 1)
-
-    def axis_rates(self, axis: int) -> list[tuple[float, float]]:
-        if not self.can_move_axis(axis):
-            return []
-        return [(AXIS_MIN_DEG_S, self._max_rate())]
-
-    def _max_rate(self) -> float:
-        return SLEW_SPEEDS[-1] * SIDEREAL_DEG_S
-
-    # -- properties the mount does not have ----------------------------------------------------
-
-    def aperture_area(self) -> float:
-        raise MemberNotImplemented("a mount does not know the telescope's aperture")
-
-    def aperture_diameter(self) -> float:
-        raise MemberNotImplemented("a mount does not know the telescope's aperture")
-
-    def focal_length(self) -> float:
-        raise MemberNotImplemented("a mount does not know the telescope's focal length")
-
-    def does_refraction(self) -> bool:
-        return False
-
-    def set_does_refraction(self, value: bool) -> None:
-        if value:
-            raise MemberNotImplemented("the mount does not correct for refraction")
-
-    # Rate offsets are paid as guide pulses by the motion supervisor (motion/offsets.py); the values
-    # clients wrote are kept exactly, for read-back.
-
-    def declination_rate(self) -> float:
-        self._require_connected()
-        return self._dec_rate if self._sidereal() else 0.0
-
-    def set_declination_rate(self, value: float) -> None:
-        self._set_rate_offset(1, value, value, "DeclinationRate", "arcseconds per second")
-        self._dec_rate = value
-
-    def right_ascension_rate(self) -> float:
-        self._require_connected()
-        return self._ra_rate if self._sidereal() else 0.0
-
-    def set_right_ascension_rate(self, value: float) -> None:
-        self._set_rate_offset(0, value, ra_rate_to_arcsec(value), "RightAscensionRate",
-                              "seconds of RA per sidereal second")
-        self._ra_rate = value
-
-    def _sidereal(self) -> bool:
-        return self.mount.state.tracking_rate is TrackRate.SIDEREAL
-
-    def _set_rate_offset(self, axis: int, value: float, arcsec_s: float, name: str, unit: str) -> None:
-        if self._altaz_mode():
-            raise MemberNotImplemented(f"{name} cannot be set in alt-az mode: the offsets are guide pulses, which "
-                                       "move nothing there")
-        self._require_connected()
-        if not self._sidereal():
-            raise InvalidOperation(f"{name} can only be set while TrackingRate is sidereal (Platform 7)")
-        if not math.isfinite(arcsec_s) or abs(arcsec_s) > MAX_OFFSET_ARCSEC:
-            limit = MAX_OFFSET_ARCSEC if axis == 1 else MAX_OFFSET_ARCSEC / ra_rate_to_arcsec(1.0)
-            raise InvalidValue(f"{name} {value} is beyond ±{limit:.4f} {unit}, the largest offset this server "
-                               "tracks (a slew is the way to go faster)")
-        self.motion.set_rate_offset(axis, arcsec_s)
-
-    # -- guide rates (one mount rate shared by both axes) --------------------------------------
-
-    def guide_rate_right_ascension(self) -> float:
-        self._require_connected()
-        return self.mount.state.guide_rate * SIDEREAL_DEG_S
-
-    def guide_rate_declination(self) -> float:
-        return self.guide_rate_right_ascension()
-
-    def set_guide_rate_right_ascension(self, value: float) -> None:
-        fraction = value / SIDEREAL_DEG_S
-        if not 0.095 <= fraction <= 0.905:
-            raise InvalidValue(
-                f"guide rate {value:.6f} deg/s is {fraction:.2f}x sidereal; the mount accepts 0.1x to 0.9x "
-                f"({0.1 * SIDEREAL_DEG_S:.6f} to {0.9 * SIDEREAL_DEG_S:.6f} deg/s)"
-            )
-        self._require_connected()
-        with mount_errors("setting the guide rate"):
-            self.mount.set_guide_rate(min(0.9, max(0.1, round(fraction, 2))))
-
-    def set_guide_rate_declination(self, value: float) -> None:
-        self.set_guide_rate_right_ascension(value)
-
-    # -- site ----------------------------------------------------------------------------------
-
-    def site_latitude(self) -> float:
-        return self.settings.site.latitude
-
-    def site_longitude(self) -> float:
-        return self.settings.site.longitude
-
-    def site_elevation(self) -> float:
-        return self.settings.site.elevation
-
-    def set_site_latitude(self, value: float) -> None:
-        if not -90.0 <= value <= 90.0:
-            raise InvalidValue(f"SiteLatitude {value} is outside -90..90 degrees")
-        self._update_site(latitude=value)
-
-    def set_site_longitude(self, value: float) -> None:
-        if not -180.0 <= value <= 180.0:
-            raise InvalidValue(f"SiteLongitude {value} is outside -180..180 degrees")
-        self._update_site(longitude=value)
-
-    def set_site_elevation(self, value: float) -> None:
-        if not -300.0 <= value <= 10000.0:
-            raise InvalidValue(f"SiteElevation {value} is outside -300..10000 m")
-        self._update_site(elevation=value)
-
-    def _update_site(self, **changes: float) -> None:
-        """Keep the exact values clients wrote (they read back with ==); the mount gets arcseconds."""
-        site = dataclasses.replace(self.settings.site, **changes)
-        self.store.update(lambda s: dataclasses.replace(s, site=site))
-        if self.mount.running and ("latitude" in changes or "longitude" in changes):
-            with mount_errors("setting the site"):
-                self.mount.push_site(site.latitude, site.longitude)
 
     # -- targets -------------------------------------------------------------------------------
 

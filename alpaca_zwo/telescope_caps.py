@@ -1,0 +1,216 @@
+"""The Telescope's capabilities, the members a ZWO mount lacks, guide rates, rate offsets and site."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from typing import TYPE_CHECKING
+
+from ._exceptions import (
+    InvalidOperation,
+    InvalidValue,
+    MemberNotImplemented,
+    mount_errors,
+)
+from .config import Settings
+from .motion import MotionSupervisor
+from .motion.offsets import MAX_OFFSET_ARCSEC, ra_rate_to_arcsec
+from .mount import Mount
+from .protocol import SLEW_SPEEDS, TrackRate
+from .sky import SIDEREAL_DEG_S
+from .store import SettingsStore
+
+log = logging.getLogger(__name__)
+
+AXIS_MIN_DEG_S = SLEW_SPEEDS[0] * SIDEREAL_DEG_S  # 0.25x sidereal
+
+
+class CapabilitiesMixin:
+    """Can* flags, AxisRates, guide and offset rates and the site of :class:`~alpaca_zwo.telescope.Telescope`."""
+
+    mount: Mount
+    store: SettingsStore
+    motion: MotionSupervisor
+    _ra_rate: float
+    _dec_rate: float
+
+    if TYPE_CHECKING:  # provided by Telescope
+        @property
+        def settings(self) -> Settings: ...
+        def _require_connected(self) -> None: ...
+        def _altaz_mode(self) -> bool: ...
+
+    # -- capabilities ------------------------------------------------------------------------
+
+    def can_find_home(self) -> bool:
+        return True
+
+    def can_park(self) -> bool:
+        return True
+
+    def can_unpark(self) -> bool:
+        return True
+
+    def can_set_park(self) -> bool:
+        return True
+
+    def can_pulse_guide(self) -> bool:
+        return not self._altaz_mode()  # guide pulses move nothing in alt-az (field notes §2.5)
+
+    def can_set_guide_rates(self) -> bool:
+        return True
+
+    def can_set_tracking(self) -> bool:
+        return True
+
+    def can_slew(self) -> bool:
+        return True
+
+    def can_slew_async(self) -> bool:
+        return True
+
+    def can_slew_alt_az(self) -> bool:
+        return True
+
+    def can_slew_alt_az_async(self) -> bool:
+        return True
+
+    def can_sync(self) -> bool:
+        return True
+
+    def can_sync_alt_az(self) -> bool:
+        return True
+
+    def can_set_pier_side(self) -> bool:
+        return False
+
+    def can_set_declination_rate(self) -> bool:
+        return not self._altaz_mode()  # offsets are guide pulses, which move nothing in alt-az
+
+    def can_set_right_ascension_rate(self) -> bool:
+        return not self._altaz_mode()
+
+    def can_move_axis(self, axis: int) -> bool:
+        if axis not in (0, 1, 2):
+            raise InvalidValue(f"axis {axis} does not exist; axes are 0 (RA), 1 (Dec) and 2 (none on this mount)")
+        return axis in (0, 1)
+
+    def axis_rates(self, axis: int) -> list[tuple[float, float]]:
+        if not self.can_move_axis(axis):
+            return []
+        return [(AXIS_MIN_DEG_S, self._max_rate())]
+
+    def _max_rate(self) -> float:
+        return SLEW_SPEEDS[-1] * SIDEREAL_DEG_S
+
+    # -- properties the mount does not have ----------------------------------------------------
+
+    def aperture_area(self) -> float:
+        raise MemberNotImplemented("a mount does not know the telescope's aperture")
+
+    def aperture_diameter(self) -> float:
+        raise MemberNotImplemented("a mount does not know the telescope's aperture")
+
+    def focal_length(self) -> float:
+        raise MemberNotImplemented("a mount does not know the telescope's focal length")
+
+    def does_refraction(self) -> bool:
+        return False
+
+    def set_does_refraction(self, value: bool) -> None:
+        if value:
+            raise MemberNotImplemented("the mount does not correct for refraction")
+
+    # Rate offsets are paid as guide pulses by the motion supervisor (motion/offsets.py); the values
+    # clients wrote are kept exactly, for read-back.
+
+    def declination_rate(self) -> float:
+        self._require_connected()
+        return self._dec_rate if self._sidereal() else 0.0
+
+    def set_declination_rate(self, value: float) -> None:
+        self._set_rate_offset(1, value, value, "DeclinationRate", "arcseconds per second")
+        self._dec_rate = value
+
+    def right_ascension_rate(self) -> float:
+        self._require_connected()
+        return self._ra_rate if self._sidereal() else 0.0
+
+    def set_right_ascension_rate(self, value: float) -> None:
+        self._set_rate_offset(0, value, ra_rate_to_arcsec(value), "RightAscensionRate",
+                              "seconds of RA per sidereal second")
+        self._ra_rate = value
+
+    def _sidereal(self) -> bool:
+        return self.mount.state.tracking_rate is TrackRate.SIDEREAL
+
+    def _set_rate_offset(self, axis: int, value: float, arcsec_s: float, name: str, unit: str) -> None:
+        if self._altaz_mode():
+            raise MemberNotImplemented(f"{name} cannot be set in alt-az mode: the offsets are guide pulses, which "
+                                       "move nothing there")
+        self._require_connected()
+        if not self._sidereal():
+            raise InvalidOperation(f"{name} can only be set while TrackingRate is sidereal (Platform 7)")
+        if not math.isfinite(arcsec_s) or abs(arcsec_s) > MAX_OFFSET_ARCSEC:
+            limit = MAX_OFFSET_ARCSEC if axis == 1 else MAX_OFFSET_ARCSEC / ra_rate_to_arcsec(1.0)
+            raise InvalidValue(f"{name} {value} is beyond ±{limit:.4f} {unit}, the largest offset this server "
+                               "tracks (a slew is the way to go faster)")
+        self.motion.set_rate_offset(axis, arcsec_s)
+
+    # -- guide rates (one mount rate shared by both axes) --------------------------------------
+
+    def guide_rate_right_ascension(self) -> float:
+        self._require_connected()
+        return self.mount.state.guide_rate * SIDEREAL_DEG_S
+
+    def guide_rate_declination(self) -> float:
+        return self.guide_rate_right_ascension()
+
+    def set_guide_rate_right_ascension(self, value: float) -> None:
+        fraction = value / SIDEREAL_DEG_S
+        if not 0.095 <= fraction <= 0.905:
+            raise InvalidValue(
+                f"guide rate {value:.6f} deg/s is {fraction:.2f}x sidereal; the mount accepts 0.1x to 0.9x "
+                f"({0.1 * SIDEREAL_DEG_S:.6f} to {0.9 * SIDEREAL_DEG_S:.6f} deg/s)"
+            )
+        self._require_connected()
+        with mount_errors("setting the guide rate"):
+            self.mount.set_guide_rate(min(0.9, max(0.1, round(fraction, 2))))
+
+    def set_guide_rate_declination(self, value: float) -> None:
+        self.set_guide_rate_right_ascension(value)
+
+    # -- site ----------------------------------------------------------------------------------
+
+    def site_latitude(self) -> float:
+        return self.settings.site.latitude
+
+    def site_longitude(self) -> float:
+        return self.settings.site.longitude
+
+    def site_elevation(self) -> float:
+        return self.settings.site.elevation
+
+    def set_site_latitude(self, value: float) -> None:
+        if not -90.0 <= value <= 90.0:
+            raise InvalidValue(f"SiteLatitude {value} is outside -90..90 degrees")
+        self._update_site(latitude=value)
+
+    def set_site_longitude(self, value: float) -> None:
+        if not -180.0 <= value <= 180.0:
+            raise InvalidValue(f"SiteLongitude {value} is outside -180..180 degrees")
+        self._update_site(longitude=value)
+
+    def set_site_elevation(self, value: float) -> None:
+        if not -300.0 <= value <= 10000.0:
+            raise InvalidValue(f"SiteElevation {value} is outside -300..10000 m")
+        self._update_site(elevation=value)
+
+    def _update_site(self, **changes: float) -> None:
+        """Keep the exact values clients wrote (they read back with ==); the mount gets arcseconds."""
+        site = dataclasses.replace(self.settings.site, **changes)
+        self.store.update(lambda s: dataclasses.replace(s, site=site))
+        if self.mount.running and ("latitude" in changes or "longitude" in changes):
+            with mount_errors("setting the site"):
+                self.mount.push_site(site.latitude, site.longitude)
