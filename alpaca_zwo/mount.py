@@ -284,7 +284,7 @@ class Mount:
         now = self.clock() + self.clock_offset
         boundary = now.replace(microsecond=0) + timedelta(seconds=1)
         wait_real = (boundary - now).total_seconds() / self._clock_rate - transit_real
-        if wait_real < 0.0:
+        while wait_real < 0.0:  # too close: a fast emulator's second can be shorter than the transit
             boundary += timedelta(seconds=1)
             wait_real += 1.0 / self._clock_rate
         time.sleep(wait_real)
