@@ -36,10 +36,10 @@ from ._exceptions import (
     mount_errors,
 )
 from .config import Settings, settings_from_dict, settings_to_dict
-from .protocol import MeridianSettings, MountMode, MountStatus, parse_status
+from .wire_values import MeridianSettings, MountMode, MountStatus, parse_status
 
 if TYPE_CHECKING:
-    from .mount import MountSettings
+    from .mount_state import MountSettings
     from .telescope import Telescope
 
 log = logging.getLogger(__name__)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from . import __version__
 from ._exceptions import AlpacaZwoError, ConfigError
-from .config import default_config_path, load_settings
+from .config_file import default_config_path, load_settings
 from .devices import DeviceError, check_device, find_mount, format_candidates, list_candidates
 from .server import AlpacaZwoServer, Overrides
 from .service import KINDS, render

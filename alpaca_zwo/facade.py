@@ -30,8 +30,7 @@ from ._exceptions import AlpacaError, ConfigError, InvalidValue, LinkError, Moun
 from .clients import ClientActivity, ClientKey, current_client
 from .config import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .link import LinkCounters, LinkStatus, TraceEntry
-from .mount import MountSettings, MountState
-from .protocol import MeridianSettings
+from .mount_state import MountSettings, MountState
 from .sky import (
     SIDEREAL_DEG_S,
     SOLAR_SECONDS_PER_SIDEREAL_SECOND,
@@ -39,6 +38,7 @@ from .sky import (
     hour_angle,
     local_sidereal_time,
 )
+from .wire_values import MeridianSettings
 
 if TYPE_CHECKING:
     from .server import AlpacaZwoServer

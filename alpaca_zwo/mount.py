@@ -1,7 +1,7 @@
 """Typed mount operations and the state snapshot kept fresh by one poller.
 
 Reads never touch the port: the server answers every property from :attr:`Mount.state`, an
-immutable :class:`MountState` that one poller thread replaces atomically. The poller spends the
+immutable :class:`~alpaca_zwo.mount_state.MountState` that one poller thread replaces atomically. The poller spends the
 fewest bytes it can (``:GMEQ#`` for both coordinates, ``:GU#``, ``:GAT#``, ``:Gm#``), polls fast
 while anything moves and slowly at rest, so serial traffic is independent of how many HTTP
 clients are reading.
@@ -19,17 +19,18 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from datetime import datetime, timedelta, timezone
 from typing import Any
 
-from . import protocol
+from . import protocol, wire_values
 from ._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
 from .estimator import PositionEstimator
-from .firmware import has_feature
-from .link import Link, LinkStatus, Priority
-from .protocol import Direction, MeridianSettings, MountStatus, TrackingState, TrackRate
+from .link import Link, Priority
+from .mount_state import MountInfo, MountSettings, MountState
+from .protocol import TrackingState
 from .sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
+from .wire_values import Direction, MeridianSettings, MountStatus, TrackRate
 
 log = logging.getLogger(__name__)
 
@@ -44,65 +45,6 @@ PULSE_CHUNK_MS = 3000
 
 def utc_now() -> datetime:
     return datetime.now(timezone.utc)
-
-
-@dataclass(frozen=True)
-class MountInfo:
-    """Identity read at connect; the firmware version gates features (field notes §5.6)."""
-
-    model: str
-    firmware: str
-
-    @property
-    def has_meridian_settings(self) -> bool:
-        return has_feature(self.firmware, "meridian_settings")
-
-
-@dataclass(frozen=True)
-class MountSettings:
-    """Settings stored in the mount itself, read on demand (not polled)."""
-
-    meridian: MeridianSettings | None
-    limits_enabled: bool | None
-    upper_limit: int | None
-    lower_limit: int | None
-    heavy_duty: bool | None
-    buzzer: int | None
-    guide_rate: float | None
-    daylight_saving: bool | None = None
-
-
-@dataclass(frozen=True)
-class MountState:
-    """One coherent picture of the mount. Each group of values carries the time it was read."""
-
-    time: float  # monotonic time this snapshot was published
-    ra: float | None = None  # hours, best estimate (sub-arcsecond)
-    dec: float | None = None  # degrees
-    raw_ra: float | None = None  # as the mount printed them
-    raw_dec: float | None = None
-    position_time: float | None = None  # monotonic time of the reading
-    status: MountStatus | None = None
-    status_time: float | None = None
-    tracking: TrackingState | None = None
-    pier: str | None = None  # 'E', 'W' or 'N' (home)
-    tracking_rate: TrackRate = TrackRate.SIDEREAL
-    guide_rate: float = 0.5
-    moving_axes: frozenset[int] = frozenset()
-    link: LinkStatus | None = None
-    info: MountInfo | None = None
-    initialised: bool = False  # time and site pushed since the link last (re)connected
-    poll_error: str = ""
-
-    def age(self, now: float | None = None) -> float | None:
-        """Seconds since the position was read (None: never)."""
-        if self.position_time is None:
-            return None
-        return (time.monotonic() if now is None else now) - self.position_time
-
-    @property
-    def goto_running(self) -> bool:
-        return bool(self.status and self.status.slewing)
 
 
 SiteProvider = Callable[[], tuple[float, float]]
@@ -304,7 +246,7 @@ class Mount:
         withdraws the :MS# unsent (MotionCancelled) if a stop came first."""
         self.ensure_initialised()
         set_ra, set_dec = protocol.set_target_ra(ra), protocol.set_target_dec(dec)
-        wire = (protocol.parse_hms(set_ra.text[3:-1]), protocol.parse_dms(set_dec.text[3:-1]))
+        wire = (wire_values.parse_hms(set_ra.text[3:-1]), wire_values.parse_dms(set_dec.text[3:-1]))
         self._exec(set_ra)
         self._exec(set_dec)
         try:
@@ -371,7 +313,7 @@ class Mount:
                 self.link.send_urgent(protocol.stop_direction(direction))
             moving.discard(axis)
         else:
-            multiple = min(abs(rate_deg_s) / SIDEREAL_DEG_S, protocol.SLEW_SPEEDS[-1])
+            multiple = min(abs(rate_deg_s) / SIDEREAL_DEG_S, wire_values.SLEW_SPEEDS[-1])
             if axis == 0:
                 direction = Direction.EAST if rate_deg_s > 0 else Direction.WEST
             else:
@@ -396,16 +338,23 @@ class Mount:
 
     def drift(self, axis: int, rate_deg_s: float, guard: Guard | None = None) -> None:
         """Run (or stop, with 0) a slow move that carries a tracking rate offset too large for guide
-        pulses. Unlike move_axis it is part of tracking, not a slew: moving_axes is left alone and
-        the position estimator carries the motion. The rate is rounded to the mount's 0.01x steps."""
-        if rate_deg_s == 0.0:
+        pulses, or (alt-az mode) a guide pulse. Unlike move_axis it is part of tracking, not a slew:
+        moving_axes is left alone and the position estimator carries the motion. The rate is rounded
+        to the mount's 0.01x steps; one that rounds to 0 stops the move."""
+        multiple = round(min(abs(rate_deg_s) / SIDEREAL_DEG_S, wire_values.SLEW_SPEEDS[-1]), 2)
+        if multiple == 0.0:
+            rate_deg_s = 0.0
             if self._drift[axis] != 0.0:
                 direction = self._move_directions.pop(axis, None)
                 for d in [direction] if direction else self._axis_directions(axis):
                     self.link.send_urgent(protocol.stop_direction(d))
         else:
-            multiple = round(min(abs(rate_deg_s) / SIDEREAL_DEG_S, protocol.SLEW_SPEEDS[-1]), 2)
             direction = self._axis_directions(axis)[0 if rate_deg_s > 0 else 1]
+            previous = self._move_directions.get(axis)
+            if previous is not None and previous is not direction:
+                self.link.send_urgent(protocol.stop_direction(previous))  # :Me# does not end a running :Mw#
+                del self._move_directions[axis]
+                self._drift[axis] = 0.0
             self._exec(protocol.set_variable_speed(multiple))
             self._exec(protocol.move(direction), guard=guard)
             self._move_directions[axis] = direction

@@ -50,7 +50,7 @@ class EmbeddedEmulator:
 
     def __init__(self, settings: Settings, speed: float, baud: int, mode: str | None = None) -> None:
         from .emulator import EmulatorServer, MountModel, ScaledClock, preset
-        from .protocol import MountMode
+        from .wire_values import MountMode
 
         self.clock = ScaledClock(speed=speed)
         config = settings.emulator

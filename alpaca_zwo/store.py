@@ -12,7 +12,8 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
-from .config import Settings, save_settings, validate_settings
+from .config import Settings, validate_settings
+from .config_file import save_settings
 
 log = logging.getLogger(__name__)
 

@@ -32,12 +32,13 @@ from ._exceptions import (
 from .clients import ClientKey, ClientRegistry, current_client
 from .config import DeviceSettings, Settings, horizon_altitude_at
 from .motion import Motion, MotionKind, MotionSupervisor
-from .mount import Mount, MountState
-from .protocol import Direction, MeridianSettings, MountMode, TrackRate
+from .mount import Mount
+from .mount_state import MountState
 from .sky import PierSide
 from .store import SettingsStore
 from .telescope_caps import AXIS_MIN_DEG_S, CapabilitiesMixin
 from .telescope_connection import ConnectionMixin
+from .wire_values import Direction, MeridianSettings, TrackRate
 
 log = logging.getLogger(__name__)
 
@@ -296,9 +297,6 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return self.motion.slewing()
 
     def is_pulse_guiding(self) -> bool:
-        if self._altaz_mode():
-            raise MemberNotImplemented("the mount is in alt-az mode, where it cannot pulse guide "
-                                       "(CanPulseGuide is false)")
         self._require_connected()
         return self.motion.pulse_guiding()
 
@@ -306,8 +304,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         """Alt-az as the mount's ``:GU#`` last said (``Z``). The mount reads its mode only at power-up,
         and ``:GU#`` is read again on every poll and at every new link generation, so this follows a
         mode switch once the mount has been restarted and the link reconnected."""
-        status = self.mount.state.status
-        return status is not None and status.mode is MountMode.ALTAZ
+        return self.mount.state.altaz
 
     def side_of_pier(self) -> int:
         state = self._state()
@@ -358,7 +355,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
             ("AtPark", self.motion.parked),
             ("Azimuth", azimuth),
             ("Declination", position[1]),
-            *([] if self._altaz_mode() else [("IsPulseGuiding", self.motion.pulse_guiding())]),
+            ("IsPulseGuiding", self.motion.pulse_guiding()),
             ("RightAscension", position[0]),
             ("SideOfPier", self.side_of_pier()),
             ("SiderealTime", self._lst()),
@@ -567,9 +564,6 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
     # -- guiding -------------------------------------------------------------------------------
 
     def pulse_guide(self, direction: int, duration: int) -> None:
-        if self._altaz_mode():
-            raise MemberNotImplemented("PulseGuide is not available in alt-az mode: guide pulses produce no "
-                                       "measurable movement there (CanPulseGuide is false); guide in equatorial mode")
         longest = self.settings.safety.guide_max_ms
         if direction not in GUIDE_DIRECTIONS:
             raise InvalidValue(f"Direction {direction} is not 0 (N), 1 (S), 2 (E) or 3 (W)")

@@ -17,9 +17,9 @@ from .config import Settings
 from .motion import MotionSupervisor
 from .motion.offsets import MAX_OFFSET_ARCSEC, ra_rate_to_arcsec
 from .mount import Mount
-from .protocol import SLEW_SPEEDS, TrackRate
 from .sky import SIDEREAL_DEG_S
 from .store import SettingsStore
+from .wire_values import SLEW_SPEEDS, TrackRate
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +56,7 @@ class CapabilitiesMixin:
         return True
 
     def can_pulse_guide(self) -> bool:
-        return not self._altaz_mode()  # guide pulses move nothing in alt-az (field notes §2.5)
+        return True  # in alt-az, where :Mg moves nothing (field notes §2.5), pulses are timed moves
 
     def can_set_guide_rates(self) -> bool:
         return True
@@ -86,7 +86,7 @@ class CapabilitiesMixin:
         return False
 
     def can_set_declination_rate(self) -> bool:
-        return not self._altaz_mode()  # offsets are guide pulses, which move nothing in alt-az
+        return not self._altaz_mode()  # offsets ride on :Mg pulses, which move nothing in alt-az
 
     def can_set_right_ascension_rate(self) -> bool:
         return not self._altaz_mode()
@@ -147,8 +147,8 @@ class CapabilitiesMixin:
 
     def _set_rate_offset(self, axis: int, value: float, arcsec_s: float, name: str, unit: str) -> None:
         if self._altaz_mode():
-            raise MemberNotImplemented(f"{name} cannot be set in alt-az mode: the offsets are guide pulses, which "
-                                       "move nothing there")
+            raise MemberNotImplemented(f"{name} cannot be set in alt-az mode: the offsets are paid in the mount's "
+                                       "guide pulses, which move nothing there")
         self._require_connected()
         if not self._sidereal():
             raise InvalidOperation(f"{name} can only be set while TrackingRate is sidereal (Platform 7)")

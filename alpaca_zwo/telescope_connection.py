@@ -23,7 +23,7 @@ from .clients import ClientKey, ClientRegistry, current_client
 from .config import Settings
 from .motion import MotionSupervisor
 from .mount import Mount
-from .protocol import MeridianSettings, TrackRate
+from .wire_values import MeridianSettings, TrackRate
 
 log = logging.getLogger(__name__)
 

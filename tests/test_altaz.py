@@ -1,10 +1,12 @@
 """The server with the mount in alt-az mode, through alpyca, judged by the emulator's own truth.
 
 The built-in emulator starts in alt-az mode (``[emulator] mode = "altaz"``, as after ``:AA#`` and a
-restart). Facts from shared/zwo/field-notes.md: ``:GU#`` shows ``Z`` in alt-az mode (§3); guide
-pulses produce no measurable movement there (§2.5, PT), so PulseGuide and the rate offsets built
-from pulses are not offered; ``:AA#``/``:AP#`` need a restart (§2.8). ASCOM: AlignmentMode algAltAz
-(0), SideOfPier/DestinationSideOfPier pierUnknown (-1) for a mount that has no pier side.
+restart). Facts from shared/zwo/field-notes.md: ``:GU#`` shows ``Z`` in alt-az mode (§3); the mount's
+guide pulses (``:Mg``) produce no measurable movement there (§2.5, PT), so the server guides with
+timed moves at the guide speed instead (``:Rv`` + ``:M?#``, which keep their sky meaning) and never
+sends ``:Mg``; the rate offsets, paid in ``:Mg`` pulses, are not offered; ``:AA#``/``:AP#`` need a
+restart (§2.8). ASCOM: AlignmentMode algAltAz (0), SideOfPier/DestinationSideOfPier pierUnknown (-1)
+for a mount that has no pier side.
 """
 
 from __future__ import annotations
@@ -24,9 +26,9 @@ from alpaca.telescope import Telescope as AlpycaTelescope
 from alpaca_zwo import sky
 from alpaca_zwo.config import EmulatorSettings
 from alpaca_zwo.emulator import MountModel
-from alpaca_zwo.protocol import MountMode
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.web import CSRF_HEADER
+from alpaca_zwo.wire_values import MountMode
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
 
@@ -89,34 +91,106 @@ def test_alignment_mode_and_capabilities(rig: Rig) -> None:
     scope = rig.scope
     assert rig.model.mode() is MountMode.ALTAZ
     assert scope.AlignmentMode == AlignmentModes.algAltAz
-    assert scope.CanPulseGuide is False
+    assert scope.CanPulseGuide is True  # as timed moves: :Mg moves nothing in alt-az
     assert scope.CanSetPierSide is False
     assert scope.CanSetRightAscensionRate is False and scope.CanSetDeclinationRate is False
     assert scope.SideOfPier == PierSide.pierUnknown
     assert scope.DestinationSideOfPier(_ra_at_ha(scope, 2.0), 40.0) == PierSide.pierUnknown
     assert scope.DestinationSideOfPier(_ra_at_ha(scope, -2.0), 40.0) == PierSide.pierUnknown
-    with pytest.raises(NotImplementedException):
-        scope.IsPulseGuiding  # noqa: B018 - ConformU: must fail when CanPulseGuide is false
+    assert scope.IsPulseGuiding is False
     names = {item["Name"] for item in scope.DeviceState}
-    assert "IsPulseGuiding" not in names and "SideOfPier" in names
+    assert "IsPulseGuiding" in names and "SideOfPier" in names
     # Still the ordinary reads.
     assert 0.0 <= scope.Altitude <= 90.0 and 0.0 <= scope.Azimuth < 360.0
     assert scope.RightAscensionRate == 0.0 and scope.DeclinationRate == 0.0
 
 
-def test_pulse_guide_and_rate_offsets_are_refused_and_nothing_is_sent(rig: Rig) -> None:
-    """PT (§2.5): pulses move nothing in alt-az, so PulseGuide answers NotImplemented (0x400)."""
+def test_rate_offsets_are_refused_and_nothing_is_sent(rig: Rig) -> None:
+    """The offsets are paid in :Mg pulses, which move nothing in alt-az (PT, §2.5): NotImplemented (0x400)."""
     start = rig.trace_length()
-    before = rig.model.position()
-    with pytest.raises(NotImplementedException, match="alt-az"):
-        rig.scope.PulseGuide(GuideDirections.guideEast, 1000)
     with pytest.raises(NotImplementedException, match="alt-az"):
         rig.scope.RightAscensionRate = 0.001
     with pytest.raises(NotImplementedException, match="alt-az"):
         rig.scope.DeclinationRate = 0.5
-    assert not [r for r in rig.sent_since(start) if r.startswith(":Mg")]
+    assert not [r for r in rig.sent_since(start) if r.startswith((":Mg", ":Rv", ":M"))]
     assert rig.model.pulsing() == (False, False)
-    assert sky.angular_separation(*before, *rig.model.position()) < 60 * ARCSEC  # only idle drift
+
+
+def _tracking_on_a_star(rig: Rig) -> None:
+    rig.scope.SlewToCoordinatesAsync(_ra_at_ha(rig.scope, -2.0), 30.0)
+    rig.wait_slew("the slew to end")
+    assert rig.scope.Tracking is True
+
+
+def _wait_mount_seconds(rig: Rig, seconds: float) -> None:
+    until = rig.mount_seconds() + seconds
+    wait_until(lambda: rig.mount_seconds() >= until, 30, f"{seconds} s of mount time")
+
+
+GUIDE_CASES = [  # direction, ms, expected (dRA seconds of time, dDec arcsec) at the default 0.5x guide rate
+    (GuideDirections.guideNorth, 2000, 0.0, 15.0),
+    (GuideDirections.guideSouth, 1500, 0.0, -11.25),
+    (GuideDirections.guideEast, 2000, 1.0, 0.0),
+    (GuideDirections.guideWest, 4000, -2.0, 0.0),
+]
+
+
+@pytest.mark.parametrize(("direction", "ms", "d_ra_s", "d_dec"), GUIDE_CASES)
+def test_pulse_guide_moves_the_sky_position_by_rate_times_duration(
+        rig: Rig, direction: GuideDirections, ms: int, d_ra_s: float, d_dec: float) -> None:
+    """The mount's :Mg does nothing in alt-az (PT, §2.5), so a pulse is a move at the guide speed that
+    the server stops after the duration; the emulator's true position moved by guide rate x duration,
+    IsPulseGuiding was true for the pulse and false after, and no :Mg went out."""
+    _tracking_on_a_star(rig)
+    assert rig.scope.GuideRateDeclination == pytest.approx(0.5 * sky.SIDEREAL_DEG_S, rel=1e-3)
+    before, start, t0 = rig.model.position(), rig.trace_length(), rig.mount_seconds()
+    rig.scope.PulseGuide(direction, ms)
+    assert rig.scope.IsPulseGuiding is True
+    wait_until(lambda: not rig.scope.IsPulseGuiding, 30, "the pulse to end", interval=0.02)
+    assert rig.mount_seconds() - t0 >= ms / 1000.0
+    _wait_mount_seconds(rig, 1.0)  # the move has been stopped: nothing more accrues
+    after = rig.model.position()
+    d_ra = ((after[0] - before[0] + 12.0) % 24.0 - 12.0) * 3600.0
+    assert d_ra == pytest.approx(d_ra_s, abs=0.1)  # 0.1 s of time = 1.5″
+    assert (after[1] - before[1]) * 3600.0 == pytest.approx(d_dec, abs=1.5)
+    # The server's own position follows the pulse too (its estimator carries the move).
+    assert sky.angular_separation(rig.scope.RightAscension, rig.scope.Declination, *rig.model.position()) < 2 * ARCSEC
+    sent = rig.sent_since(start)
+    assert not [r for r in sent if r.startswith(":Mg")]
+    letter = {GuideDirections.guideNorth: "n", GuideDirections.guideSouth: "s",
+              GuideDirections.guideEast: "e", GuideDirections.guideWest: "w"}[direction]
+    assert ":Rv0.50#" in sent and f":M{letter}#" in sent and f":Q{letter}#" in sent
+    assert rig.scope.Tracking is True
+
+
+def test_a_pulse_in_the_opposite_direction_replaces_the_running_one(rig: Rig) -> None:
+    _tracking_on_a_star(rig)
+    before = rig.model.position()
+    rig.scope.PulseGuide(GuideDirections.guideNorth, 10000)
+    _wait_mount_seconds(rig, 2.0)
+    rig.scope.PulseGuide(GuideDirections.guideSouth, 2000)
+    wait_until(lambda: not rig.scope.IsPulseGuiding, 30, "the pulse to end", interval=0.02)
+    _wait_mount_seconds(rig, 1.0)
+    # North for about 2 s, south for 2 s: back where it started, not 10 s north.
+    assert abs(rig.model.position()[1] - before[1]) * 3600.0 < 3.0
+
+
+@pytest.mark.parametrize("stop", ["AbortSlew", "last client disconnects"])
+def test_a_stop_ends_a_pulse_and_the_mount_holds_still(rig: Rig, stop: str) -> None:
+    """Safety: AbortSlew, and the last client going away, end a running alt-az pulse (a move that nobody
+    stopped would carry the telescope off at the guide speed)."""
+    _tracking_on_a_star(rig)
+    rig.scope.PulseGuide(GuideDirections.guideNorth, 30000)
+    _wait_mount_seconds(rig, 1.0)
+    if stop == "AbortSlew":
+        rig.scope.AbortSlew()
+        assert rig.scope.IsPulseGuiding is False
+    else:
+        rig.scope.Connected = False
+    wait_until(lambda: rig.model.snapshot()["moves_deg_s"] == [None, None], 10, "the move to be stopped")
+    held = rig.model.position()
+    _wait_mount_seconds(rig, 3.0)
+    assert abs(rig.model.position()[1] - held[1]) * 3600.0 < 1.0
 
 
 def test_meridian_settings_action_is_refused_in_altaz(rig: Rig) -> None:

@@ -16,7 +16,7 @@ import tomllib
 from hypothesis import given
 from hypothesis import strategies as st
 
-from alpaca_zwo import config
+from alpaca_zwo import config, config_file
 from alpaca_zwo._exceptions import ConfigError
 from alpaca_zwo.config import (
     DeviceSettings,
@@ -26,11 +26,10 @@ from alpaca_zwo.config import (
     Settings,
     SiteSettings,
     horizon_altitude_at,
-    load_settings,
-    save_settings,
     settings_from_dict,
     settings_to_dict,
 )
+from alpaca_zwo.config_file import load_settings, save_settings
 
 
 def write(path: Path, text: str) -> Path:
@@ -91,7 +90,7 @@ def test_sequences_are_stored_as_tuples() -> None:
 
 
 def test_default_config_path_is_in_the_user_config_dir() -> None:
-    path = config.default_config_path()
+    path = config_file.default_config_path()
     assert path.name == "config.toml"
     assert path.parent.name == "alpaca-zwo"
     assert path.parent.parent.name != "alpaca-zwo"  # no vendor/app doubling on Windows

@@ -10,6 +10,7 @@ from collections.abc import Iterator
 import pytest
 
 from alpaca_zwo import protocol as p
+from alpaca_zwo import wire_values
 from alpaca_zwo._exceptions import LinkError, LinkTimeout, MountReplyError, ProtocolError
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.link import Link, LinkState, Priority
@@ -50,7 +51,7 @@ def test_every_reply_kind_is_read_to_its_end(link: Link) -> None:
     assert info.value.code == 11
     ra, dec = link.execute(p.query("GMEQ"))
     assert dec == 90.0 and 0.0 <= ra < 24.0
-    assert link.execute(p.query("GU")).mode is p.MountMode.EQUATORIAL
+    assert link.execute(p.query("GU")).mode is wire_values.MountMode.EQUATORIAL
 
 
 def test_a_refused_goto_reads_the_whole_error_and_stays_in_step(link: Link, model: MountModel) -> None:
@@ -64,7 +65,7 @@ def test_a_refused_goto_reads_the_whole_error_and_stays_in_step(link: Link, mode
 
 
 QUERIES = {
-    "GVP": "AM5", "GLH": 90, "GRl": 1440, "GTa": p.MeridianSettings(), "Ggr": 0.5, "GLC": False, "GLL": 0,
+    "GVP": "AM5", "GLH": 90, "GRl": 1440, "GTa": wire_values.MeridianSettings(), "Ggr": 0.5, "GLC": False, "GLL": 0,
 }
 
 

@@ -22,6 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from alpaca_zwo import protocol as p
+from alpaca_zwo import request_framer
 from alpaca_zwo._exceptions import LinkTimeout, MountReplyError, ProtocolError
 from alpaca_zwo.emulator import ManualClock, MountModel, Responder
 from alpaca_zwo.link import Link
@@ -57,7 +58,7 @@ class JunkMount:
             except OSError:
                 return
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)  # a serial line has no Nagle delay
-            framer = p.RequestFramer()
+            framer = request_framer.RequestFramer()
             with conn:
                 while True:
                     try:

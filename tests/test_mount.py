@@ -10,9 +10,10 @@ import pytest
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.estimator import PositionEstimator
 from alpaca_zwo.link import Link
-from alpaca_zwo.mount import Mount, MountState
-from alpaca_zwo.protocol import Direction, TrackRate
+from alpaca_zwo.mount import Mount
+from alpaca_zwo.mount_state import MountState
 from alpaca_zwo.sky import SIDEREAL_DEG_S
+from alpaca_zwo.wire_values import Direction, TrackRate
 
 SITE = (48.8566, 2.3522)  # Paris: east-positive longitude
 

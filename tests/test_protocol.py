@@ -11,6 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from alpaca_zwo import protocol as p
+from alpaca_zwo import request_framer
+from alpaca_zwo import wire_values as w
 from alpaca_zwo._exceptions import MountReplyError, ProtocolError
 
 # Every command of ZWO's V1.1 document and every real command of field-notes §2 named in the issue.
@@ -51,7 +53,7 @@ def test_reply_kinds_follow_real_mounts(code: str, kind: p.ReplyKind) -> None:
      (24.0, "00:00:00")],
 )
 def test_format_hms_carries_and_wraps(hours: float, text: str) -> None:
-    assert p.format_hms(hours) == text
+    assert w.format_hms(hours) == text
 
 
 @pytest.mark.parametrize(
@@ -60,87 +62,87 @@ def test_format_hms_carries_and_wraps(hours: float, text: str) -> None:
      "+46*00:00"), (-12.5, "-12*30:00"), (0.0, "+00*00:00")],
 )
 def test_format_dms_carries_and_keeps_sign(degrees: float, text: str) -> None:
-    assert p.format_dms(degrees) == text
+    assert w.format_dms(degrees) == text
 
 
 def test_longitude_is_east_negative_with_three_digits() -> None:
-    assert p.format_longitude(120 + 43 / 60 + 11 / 3600) == "-120*43:11"
-    assert p.format_longitude(-6.1) == "+006*06:00"
-    assert p.parse_longitude("-120*43:11") == pytest.approx(120 + 43 / 60 + 11 / 3600)
-    assert p.format_longitude(180.0) == "+180*00:00"
+    assert w.format_longitude(120 + 43 / 60 + 11 / 3600) == "-120*43:11"
+    assert w.format_longitude(-6.1) == "+006*06:00"
+    assert w.parse_longitude("-120*43:11") == pytest.approx(120 + 43 / 60 + 11 / 3600)
+    assert w.format_longitude(180.0) == "+180*00:00"
 
 
 def test_time_zone_sign_is_negated() -> None:
-    assert p.format_utc_offset(8) == "-08:00"
-    assert p.format_utc_offset(-5) == "+05:00"
-    assert p.format_utc_offset(5.5) == "-05:30"
-    assert p.format_utc_offset(0) == "+00:00"
-    assert p.parse_utc_offset("-08:00") == 8.0
-    assert p.parse_utc_offset("+05") == -5.0
+    assert w.format_utc_offset(8) == "-08:00"
+    assert w.format_utc_offset(-5) == "+05:00"
+    assert w.format_utc_offset(5.5) == "-05:30"
+    assert w.format_utc_offset(0) == "+00:00"
+    assert w.parse_utc_offset("-08:00") == 8.0
+    assert w.parse_utc_offset("+05") == -5.0
 
 
 def test_date_and_time_formats() -> None:
-    assert p.format_date(date(2026, 7, 10)) == "07/10/26"
-    assert p.format_time(time(20, 0, 5, 999999)) == "20:00:05"
-    assert p.parse_date("01/01/00") == date(2000, 1, 1)
+    assert w.format_date(date(2026, 7, 10)) == "07/10/26"
+    assert w.format_time(time(20, 0, 5, 999999)) == "20:00:05"
+    assert w.parse_date("01/01/00") == date(2000, 1, 1)
     assert p.set_date_time_zone(date(2026, 7, 10), time(20, 0), 1.0).text == ":SMTI07/10/26&20:00:00&-01:00#"
 
 
 @pytest.mark.parametrize("text", ["+31*15:41", "+31°15:41", "+31ß15:41", "+31\xdf15:41", "+31*15'41", "+31:15:41"])
 def test_parse_dms_accepts_every_degree_mark(text: str) -> None:
-    assert p.parse_dms(text) == pytest.approx(31 + 15 / 60 + 41 / 3600)
+    assert w.parse_dms(text) == pytest.approx(31 + 15 / 60 + 41 / 3600)
 
 
 def test_parse_dms_without_seconds_and_negative_zero() -> None:
-    assert p.parse_dms("+21*17") == pytest.approx(21 + 17 / 60)
-    assert p.parse_dms("-00*00:30") == pytest.approx(-30 / 3600)
+    assert w.parse_dms("+21*17") == pytest.approx(21 + 17 / 60)
+    assert w.parse_dms("-00*00:30") == pytest.approx(-30 / 3600)
 
 
 @pytest.mark.parametrize("text", ["", "12", "+91*00:60", "+10*60:00", "ab*cd:ef", "24:00:00x"])
 def test_parse_dms_rejects_garbage(text: str) -> None:
     with pytest.raises(ProtocolError):
-        p.parse_dms(text)
+        w.parse_dms(text)
 
 
 @pytest.mark.parametrize("text", ["24:00:00", "12:60:00", "12:00:60", "1200", ""])
 def test_parse_hms_rejects_out_of_range(text: str) -> None:
     with pytest.raises(ProtocolError):
-        p.parse_hms(text)
+        w.parse_hms(text)
 
 
 def test_parse_hms_short_format() -> None:
-    assert p.parse_hms("12:30.5") == pytest.approx(12.5 + 0.5 / 60)
+    assert w.parse_hms("12:30.5") == pytest.approx(12.5 + 0.5 / 60)
 
 
 @given(st.floats(min_value=0, max_value=24, exclude_max=True))
 def test_hms_round_trip_within_half_a_second(hours: float) -> None:
-    back = p.parse_hms(p.format_hms(hours))
+    back = w.parse_hms(w.format_hms(hours))
     assert abs((back - hours + 12) % 24 - 12) <= 0.5 / 3600 + 1e-12
 
 
 @given(st.floats(min_value=-90, max_value=90))
 def test_dms_round_trip_within_half_an_arcsecond(degrees: float) -> None:
-    assert abs(p.parse_dms(p.format_dms(degrees)) - degrees) <= 0.5 / 3600 + 1e-12
+    assert abs(w.parse_dms(w.format_dms(degrees)) - degrees) <= 0.5 / 3600 + 1e-12
 
 
 # --- status flags ---------------------------------------------------------------------------
 
 
 def test_status_letters_decode() -> None:
-    idle = p.parse_status("nNG000000000")
-    assert not idle.tracking and not idle.slewing and idle.mode is p.MountMode.EQUATORIAL and not idle.at_home
-    busy = p.parse_status("G001000060")
+    idle = w.parse_status("nNG000000000")
+    assert not idle.tracking and not idle.slewing and idle.mode is w.MountMode.EQUATORIAL and not idle.at_home
+    busy = w.parse_status("G001000060")
     assert busy.tracking and busy.slewing
-    odd = p.parse_status("nNZtM000000440")
-    assert odd.mode is p.MountMode.ALTAZ and odd.st4_dec and odd.other_flags == "M" and odd.digits == "000000440"
-    full = p.parse_status("NLHhGSsTtP000000000")
+    odd = w.parse_status("nNZtM000000440")
+    assert odd.mode is w.MountMode.ALTAZ and odd.st4_dec and odd.other_flags == "M" and odd.digits == "000000440"
+    full = w.parse_status("NLHhGSsTtP000000000")
     assert all([full.low_voltage, full.at_home, full.homing, full.ra_stall, full.dec_stall, full.st4_ra, full.parked])
 
 
 def test_status_format_round_trips() -> None:
-    status = p.MountStatus(tracking=True, slewing=False, at_home=True, digits="000000870")
-    assert p.format_status(status) == "NHG000000870"
-    assert p.parse_status(p.format_status(status)) == status
+    status = w.MountStatus(tracking=True, slewing=False, at_home=True, digits="000000870")
+    assert w.format_status(status) == "NHG000000870"
+    assert w.parse_status(w.format_status(status)) == status
 
 
 def test_error_codes_cover_one_to_twelve() -> None:
@@ -196,17 +198,17 @@ def test_compound_replies_parse() -> None:
     assert (day, clock, offset) == (date(2026, 7, 10), time(20, 0), 1.0)
     assert p.query("CM").parse("N/A#") is True
     assert p.query("Gps").parse("#") is None
-    assert p.query("GTa").parse("11+05#") == p.MeridianSettings(True, True, 5)
+    assert p.query("GTa").parse("11+05#") == w.MeridianSettings(True, True, 5)
 
 
 def test_builders_apply_unit_and_sign_conventions() -> None:
     assert p.set_latitude(31 + 15 / 60 + 24 / 3600).text == ":St+31*15:24#"
     assert p.set_longitude(120.5).text == ":Sg-120*30:00#"
     assert p.set_utc_offset(8).text == ":SG-08:00#"
-    assert p.pulse_guide(p.Direction.NORTH, 1000).text == ":Mgn1000#"
+    assert p.pulse_guide(w.Direction.NORTH, 1000).text == ":Mgn1000#"
     assert p.set_guide_rate(0.3).text == ":Rg0.30#"
     assert p.set_variable_speed(720).text == ":Rv720.00#"
-    assert p.set_meridian(p.MeridianSettings(False, True, -10)).text == ":STa01-10#"
+    assert p.set_meridian(w.MeridianSettings(False, True, -10)).text == ":STa01-10#"
     assert p.set_lower_limit(5).text == ":SLL05#"
     assert p.set_heavy_duty(True).text == ":SRl720#"
     with pytest.raises(ProtocolError):
@@ -232,14 +234,14 @@ def test_match_command_prefers_exact_and_longest_codes() -> None:
 
 
 def test_framer_keeps_colons_inside_arguments() -> None:
-    framer = p.RequestFramer()
+    framer = request_framer.RequestFramer()
     assert framer.feed(b":SL22:05:09#:Sd+45*30:15#:SMTI07/10/26&20:00:00&-01:00#") == [
         "SL22:05:09", "Sd+45*30:15", "SMTI07/10/26&20:00:00&-01:00"]
     assert framer.feed(b":Sr12:3") == [] and framer.feed(b"4:56#") == ["Sr12:34:56"]  # split across reads
 
 
 def test_framer_drops_unterminated_fragments_and_stray_bytes() -> None:
-    framer = p.RequestFramer()
+    framer = request_framer.RequestFramer()
     assert framer.feed(b":Rg0.30:GU#\r\n#garbage:GR#:Q") == ["GU", "GR"]  # INDI's ':Rg0.30' without '#'
     assert framer.feed(b"#") == ["Q"]
     assert framer.dropped == 1
@@ -261,9 +263,9 @@ def test_any_reply_text_raises_only_our_errors(reply: str, command: p.Command) -
 @settings(max_examples=300)
 @given(st.binary(max_size=200))
 def test_framer_never_raises_and_yields_bounded_bodies(data: bytes) -> None:
-    framer = p.RequestFramer()
+    framer = request_framer.RequestFramer()
     for body in framer.feed(data):
-        assert len(body) <= p.RequestFramer.MAX_LENGTH
+        assert len(body) <= request_framer.RequestFramer.MAX_LENGTH
         assert "#" not in body
         assert all(not (a == ":" and b.isascii() and b.isalpha()) for a, b in itertools.pairwise(body))
         p.match_command(body)  # never raises
@@ -272,7 +274,7 @@ def test_framer_never_raises_and_yields_bounded_bodies(data: bytes) -> None:
 @settings(max_examples=200)
 @given(st.text(max_size=30))
 def test_value_parsers_raise_only_protocol_errors(text: str) -> None:
-    for parser in (p.parse_hms, p.parse_dms, p.parse_longitude, p.parse_date, p.parse_time, p.parse_utc_offset,
-                   p.parse_status, p.parse_meridian):
+    for parser in (w.parse_hms, w.parse_dms, w.parse_longitude, w.parse_date, w.parse_time, w.parse_utc_offset,
+                   w.parse_status, w.parse_meridian):
         with contextlib.suppress(ProtocolError):
             parser(text)

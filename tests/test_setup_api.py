@@ -21,7 +21,8 @@ import pytest
 import requests
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import EmulatorSettings, ServerSettings, StellariumSettings, load_settings
+from alpaca_zwo.config import EmulatorSettings, ServerSettings, StellariumSettings
+from alpaca_zwo.config_file import load_settings
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.store import SettingsStore

@@ -13,9 +13,9 @@ import threading
 from datetime import datetime, timedelta, timezone
 from typing import TYPE_CHECKING
 
-from .. import protocol
+from .. import wire_values
 from .._exceptions import InvalidValue, ProtocolError
-from ..protocol import format_date, format_time, format_utc_offset
+from ..wire_values import format_date, format_time, format_utc_offset
 
 if TYPE_CHECKING:
     from ..telescope import Telescope
@@ -57,14 +57,14 @@ class ClockAndSite:
 
     def set_date(self, _session: Session, argument: str, well_formed: bool) -> str:
         try:
-            day = protocol.parse_date(argument)
+            day = wire_values.parse_date(argument)
         except ProtocolError:
             return "0"
         return self.set_local(datetime.combine(day, self.local().time())) if well_formed else "0"
 
     def set_time(self, _session: Session, argument: str, well_formed: bool) -> str:
         try:
-            clock = protocol.parse_time(argument)
+            clock = wire_values.parse_time(argument)
         except ProtocolError:
             return "0"
         return self.set_local(datetime.combine(self.local().date(), clock)) if well_formed else "0"
@@ -72,7 +72,7 @@ class ClockAndSite:
     def set_zone(self, _session: Session, argument: str, well_formed: bool) -> str:
         """The zone only changes how local times are read and shown; the mount keeps the server's."""
         try:
-            offset = protocol.parse_utc_offset(argument)
+            offset = wire_values.parse_utc_offset(argument)
         except ProtocolError:
             return "0"
         with self._lock:
@@ -82,8 +82,8 @@ class ClockAndSite:
     def set_date_time_zone(self, session: Session, argument: str, well_formed: bool) -> str:
         try:
             day_text, time_text, zone_text = argument.split("&")
-            day, clock = protocol.parse_date(day_text), protocol.parse_time(time_text)
-            offset = protocol.parse_utc_offset(zone_text)
+            day, clock = wire_values.parse_date(day_text), wire_values.parse_time(time_text)
+            offset = wire_values.parse_utc_offset(zone_text)
         except (ProtocolError, ValueError):
             return "0"
         if not well_formed:
@@ -109,20 +109,20 @@ class ClockAndSite:
 
     def set_latitude(self, _session: Session, argument: str, well_formed: bool) -> str:
         try:
-            return self.update_site(protocol.parse_dms(argument), None) if well_formed else "0"
+            return self.update_site(wire_values.parse_dms(argument), None) if well_formed else "0"
         except ProtocolError:
             return "0"
 
     def set_longitude(self, _session: Session, argument: str, well_formed: bool) -> str:
         try:
-            return self.update_site(None, protocol.parse_longitude(argument)) if well_formed else "0"
+            return self.update_site(None, wire_values.parse_longitude(argument)) if well_formed else "0"
         except ProtocolError:
             return "0"
 
     def set_site(self, _session: Session, argument: str, well_formed: bool) -> str:
         try:
             lat_text, lon_text = argument.split("&")
-            latitude, longitude = protocol.parse_dms(lat_text), protocol.parse_longitude(lon_text)
+            latitude, longitude = wire_values.parse_dms(lat_text), wire_values.parse_longitude(lon_text)
         except (ProtocolError, ValueError):
             return "0"
         return self.update_site(latitude, longitude) if well_formed else "0"

@@ -30,7 +30,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from .. import protocol, sky
+from .. import protocol, sky, wire_values
 from .._exceptions import (
     AlpacaError,
     AlpacaZwoError,
@@ -43,13 +43,13 @@ from .._exceptions import (
 )
 from ..clients import ClientKey
 from ..config import ZWO_PORT_DANGEROUS, horizon_altitude_at
-from ..mount import MountSettings
-from ..protocol import (
+from ..mount_state import MountSettings
+from ..protocol import ReplyKind, char_reply
+from ..sky import SIDEREAL_DEG_S
+from ..wire_values import (
     SLEW_SPEEDS,
     MeridianSettings,
     MountStatus,
-    ReplyKind,
-    char_reply,
     format_azimuth,
     format_date,
     format_dms,
@@ -62,7 +62,6 @@ from ..protocol import (
     format_tracking_rate,
     format_utc_offset,
 )
-from ..sky import SIDEREAL_DEG_S
 from .zwo_clock_site import ClockAndSite
 
 if TYPE_CHECKING:
@@ -162,7 +161,7 @@ class ZwoResponder:
 
     def _set_meridian(self, argument: str, well_formed: bool) -> str:
         try:
-            self.telescope.set_meridian_settings(protocol.parse_meridian(argument))
+            self.telescope.set_meridian_settings(wire_values.parse_meridian(argument))
         except (ProtocolError, AlpacaError):
             return "0"
         return "1" if well_formed else "0"
@@ -269,7 +268,7 @@ class ZwoResponder:
 
     def _set_target_ra(self, session: Session, argument: str, well_formed: bool) -> str:
         try:
-            ra = protocol.parse_hms(argument)
+            ra = wire_values.parse_hms(argument)
         except ProtocolError:
             return "e2#"  # seconds or minutes of 60, or a bad format (PYAM5)
         if not well_formed:
@@ -279,7 +278,7 @@ class ZwoResponder:
 
     def _set_target_dec(self, session: Session, argument: str, well_formed: bool) -> str:
         try:
-            dec = protocol.parse_dms(argument)
+            dec = wire_values.parse_dms(argument)
         except ProtocolError:
             return "e2#"
         if not well_formed or not -90.0 <= dec <= 90.0:

@@ -30,7 +30,7 @@ from ..firmware import (
     FirmwareVariant,
     preset,
 )
-from ..protocol import MountMode
+from ..wire_values import MountMode
 from .clock import ScaledClock
 from .control import ControlServer
 from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, MountModel

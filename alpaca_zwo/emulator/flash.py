@@ -3,7 +3,7 @@ buzzer and Bluetooth identity (kept across power cycles and the ``reboot`` fault
 
 from __future__ import annotations
 
-from ..protocol import MeridianSettings, MountMode
+from ..wire_values import MeridianSettings, MountMode
 from .state import ModelBase
 
 

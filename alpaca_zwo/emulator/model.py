@@ -38,8 +38,8 @@ from typing import Any
 
 from .. import sky
 from ..firmware import FirmwareVariant
-from ..protocol import SLEW_SPEEDS, MountMode, MountStatus
 from ..sky import SIDEREAL_DEG_S
+from ..wire_values import SLEW_SPEEDS, MountMode, MountStatus
 from .altaz import AltAzRules
 from .clock import Clock
 from .clocksite import ClockAndSite

@@ -14,12 +14,12 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from .. import protocol
+from .. import protocol, wire_values
 from .._exceptions import ProtocolError
 from ..firmware import has_feature
-from ..protocol import (
+from ..protocol import error_reply
+from ..wire_values import (
     MountMode,
-    error_reply,
     format_azimuth,
     format_date,
     format_dms,
@@ -52,8 +52,8 @@ Handler = Callable[[str, bool], "str | bool | None"]
 
 def _gt_digit(rate_name: str, mapping: str) -> str:
     """The model's rate name ("custom" for an :STR rate) as this firmware's :GT# digit."""
-    rate = None if rate_name == "custom" else protocol.TrackRate(rate_name)
-    return protocol.format_tracking_rate(rate, mapping)
+    rate = None if rate_name == "custom" else wire_values.TrackRate(rate_name)
+    return wire_values.format_tracking_rate(rate, mapping)
 
 
 def _two_digits(argument: str) -> int | None:

@@ -23,7 +23,7 @@ import threading
 import time
 from typing import Any
 
-from ..protocol import RequestFramer
+from ..request_framer import RequestFramer
 from .faults import FaultEvent, Faults
 from .model import MountModel
 from .responder import Responder

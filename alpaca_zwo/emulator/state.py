@@ -14,7 +14,7 @@ from datetime import datetime
 
 from .. import sky
 from ..firmware import FirmwareVariant
-from ..protocol import MeridianSettings, MountMode
+from ..wire_values import MeridianSettings, MountMode
 from .clock import Clock
 from .faults import Faults
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 from ..clients import ClientKey
-from ..protocol import Direction
+from ..wire_values import Direction
 
 log = logging.getLogger(__name__)
 
@@ -78,12 +78,17 @@ class ManualMove:
 @dataclass
 class Pulse:
     """A guide pulse sent in chunks of at most 3 s: ``remaining_ms`` not yet sent, and the mount time
-    by which the whole pulse should be over (a link failure may cost pulse time, nothing else may)."""
+    by which the whole pulse should be over (a link failure may cost pulse time, nothing else may).
+
+    ``by_move``: alt-az mode, where the mount's ``:Mg`` moves nothing (field notes §2.5). The pulse is
+    a move at the guide speed, relative to the sky like a pulse, that the supervisor stops at
+    ``chunk_end`` (the whole pulse: a move needs no chunks)."""
 
     direction: Direction
     remaining_ms: int
     deadline: float
     chunk_end: float
+    by_move: bool = False
 
 
 def _wrap12(hours: float) -> float:

@@ -17,8 +17,9 @@ from .._exceptions import (
     InvalidOperation,
 )
 from ..config import Settings, horizon_altitude_at
-from ..mount import Mount, MountState
-from ..protocol import MountMode
+from ..mount import Mount
+from ..mount_state import MountState
+from ..wire_values import MountMode
 from .kinds import DECELERATION_DEG_S2, TICK_S, _wrap12
 
 log = logging.getLogger(__name__)

@@ -27,9 +27,10 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from .._exceptions import LinkError, MotionCancelled, MountReplyError, ProtocolError
-from ..mount import PULSE_CHUNK_MS, Mount, MountState
-from ..protocol import Direction
+from ..mount import PULSE_CHUNK_MS, Mount
+from ..mount_state import MountState
 from ..sky import SIDEREAL_DEG_S
+from ..wire_values import Direction
 
 if TYPE_CHECKING:
     from .kinds import ManualMove, Motion, Pulse
@@ -156,6 +157,9 @@ class OffsetsMixin:
     def _tick_offsets(self, now: float, state: MountState) -> None:
         """Pay the rate offsets: guide pulses for small ones, a slow move for large (see offsets.py)."""
         offsets = self.offsets
+        if state.altaz:  # offsets are refused there; the slow moves in alt-az are guide pulses
+            offsets.reset()
+            return
         drifting = any(self.mount.drift_rates)
         if not offsets.active and not drifting:
             return

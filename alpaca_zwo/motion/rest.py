@@ -13,7 +13,8 @@ from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ..mount import Mount, MountState
+from ..mount import Mount
+from ..mount_state import MountState
 from ..sky import SIDEREAL_HOURS_PER_S
 from .kinds import _wrap12
 

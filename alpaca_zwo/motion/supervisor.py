@@ -51,8 +51,10 @@ from .._exceptions import (
 )
 from ..clients import ClientKey, ClientRegistry
 from ..config import Settings
-from ..mount import PULSE_CHUNK_MS, Mount, MountState
-from ..protocol import Direction
+from ..mount import PULSE_CHUNK_MS, Mount
+from ..mount_state import MountState
+from ..sky import SIDEREAL_DEG_S
+from ..wire_values import Direction
 from .kinds import (
     DECELERATION_DEG_S2,
     MAX_MOTION_S,
@@ -177,6 +179,9 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         if not self.moves and not self.mount.state.moving_axes and not self.pulses:
             return
         log.warning("stopping manual motion: %s", why)
+        for axis, pulse in list(self.pulses.items()):
+            if pulse.by_move:
+                self._end_move_pulse(axis, pulse)
         with self._lock:
             self.pulses.clear()
         for axis in (0, 1):
@@ -335,6 +340,9 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         if duration_ms == 0:
             return
         axis = 0 if direction in (Direction.EAST, Direction.WEST) else 1
+        if self.mount.state.altaz:
+            self._start_move_pulse(axis, direction, duration_ms)
+            return
         chunk = min(duration_ms, PULSE_CHUNK_MS)
         with self._start_lock:
             self.offsets.refund(axis, self.mount.monotonic())  # this pulse replaces any offset pulse
@@ -350,6 +358,37 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
                     self.pulses[axis] = Pulse(direction, duration_ms - chunk,
                                               end - chunk / 1000.0 + duration_ms / 1000.0, end)
         self._notify()
+
+    def _start_move_pulse(self, axis: int, direction: Direction, duration_ms: int) -> None:
+        """Alt-az mode: the pulse as a move at the guide speed (``:Rv`` + ``:M?#``), stopped by the
+        supervisor at its end. The mount's own ``:Mg`` moves nothing in alt-az (field notes §2.5), while
+        its moves there keep their sky meaning, as pulses have."""
+        speed = self.mount.state.guide_rate * SIDEREAL_DEG_S
+        sign = 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
+        with self._start_lock:
+            generation = self.generation
+            try:
+                self.mount.drift(axis, sign * speed, guard=self._guard(generation))
+            except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:
+                if isinstance(exc, MotionCancelled):
+                    raise InvalidOperation("PulseGuide cancelled: a stop arrived while it was starting") from exc
+                raise driver_error("PulseGuide", exc) from exc
+            end = self.mount.monotonic() + duration_ms / 1000.0
+            with self._lock:
+                if self.generation == generation:
+                    self.pulses[axis] = Pulse(direction, 0, end, end, by_move=True)
+        self._notify()
+
+    def _end_move_pulse(self, axis: int, pulse: Pulse) -> None:
+        """Stop an alt-az pulse's move. A move that cannot be stopped is a runaway: stop everything."""
+        with self._lock:
+            if self.pulses.get(axis) is not pulse:
+                return  # replaced by a newer pulse (which owns the move now) or cleared by a stop
+            del self.pulses[axis]
+        try:
+            self.mount.drift(axis, 0.0)
+        except (LinkError, ProtocolError, MountReplyError) as exc:
+            self.safety_stop(f"ending an alt-az guide pulse failed: {exc}")
 
     def wait(self, motion: Motion, timeout: float = MAX_MOTION_S) -> None:
         """Block until ``motion`` has ended (synchronous Alpaca slews)."""
@@ -417,6 +456,9 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         the mount carries on with the chunk it has, and the rest goes out once the link is back."""
         for axis, pulse in list(self.pulses.items()):
             if now < pulse.chunk_end:
+                continue
+            if pulse.by_move:
+                self._end_move_pulse(axis, pulse)
                 continue
             if pulse.remaining_ms < 10:
                 with self._lock:

@@ -25,11 +25,12 @@ from alpaca.exceptions import (
 from alpaca.telescope import Telescope as AlpycaTelescope
 
 from alpaca_zwo.actions import ACTIONS
-from alpaca_zwo.config import EmulatorSettings, load_settings
+from alpaca_zwo.config import EmulatorSettings
+from alpaca_zwo.config_file import load_settings
 from alpaca_zwo.emulator import MountModel
-from alpaca_zwo.protocol import MeridianSettings, MountMode
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.store import SettingsStore
+from alpaca_zwo.wire_values import MeridianSettings, MountMode
 from tests.conftest import ServerFactory, make_settings
 
 README = Path(__file__).resolve().parents[2] / "README.md"

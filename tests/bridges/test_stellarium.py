@@ -277,7 +277,7 @@ def test_command_line_option_turns_it_on_for_the_run(tmp_path: Path) -> None:
             assert client.read_position(timeout=20.0).status == 0  # Stellarium alone connects the mount
         finally:
             client.close()
-        from alpaca_zwo.config import load_settings
+        from alpaca_zwo.config_file import load_settings
 
         saved = load_settings(config).stellarium
         assert saved.enabled is False, "the option is for this run only and must not be saved"

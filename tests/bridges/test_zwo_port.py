@@ -21,7 +21,7 @@ from datetime import datetime, timezone
 import pytest
 from alpaca.telescope import Telescope as AlpacaTelescope
 
-from alpaca_zwo import protocol, sky
+from alpaca_zwo import protocol, sky, wire_values
 from alpaca_zwo.config import EmulatorSettings, LimitSettings, ZwoPortSettings
 from alpaca_zwo.protocol import ReplyKind, reply_complete
 from alpaca_zwo.server import AlpacaZwoServer
@@ -118,8 +118,8 @@ def _emulator(server: AlpacaZwoServer) -> ZwoClient:
 
 
 def _goto(zwo: ZwoClient, ra: float, dec: float) -> bytes:
-    assert zwo.ask(":Sr" + protocol.format_hms(ra) + "#") == b"1"
-    assert zwo.ask(":Sd" + protocol.format_dms(dec) + "#") == b"1"
+    assert zwo.ask(":Sr" + wire_values.format_hms(ra) + "#") == b"1"
+    assert zwo.ask(":Sd" + wire_values.format_dms(dec) + "#") == b"1"
     return zwo.ask(":MS#")
 
 
@@ -158,13 +158,13 @@ def test_queries_answer_the_same_bytes_as_the_mount(server: AlpacaZwoServer, alp
             ours, mount = zwo.ask(command).decode(), emulator.ask(command).decode()
             assert len(ours) == len(mount) and ours[-1] == "#" and ours.index("*") == mount.index("*"), (ours, mount)
             for a, b in zip(ours[:-1].split("&"), mount[:-1].split("&"), strict=True):
-                assert abs(protocol.parse_dms(a) - protocol.parse_dms(b)) < 30 / 3600, (command, ours, mount)
+                assert abs(wire_values.parse_dms(a) - wire_values.parse_dms(b)) < 30 / 3600, (command, ours, mount)
         # Sidereal and local time: the server's clock, which the mount's whole-second clock trails by < 1 s.
-        ours_lst = protocol.parse_hms(zwo.ask(":GS#").decode()[:-1])
-        mount_lst = protocol.parse_hms(emulator.ask(":GS#").decode()[:-1])
+        ours_lst = wire_values.parse_hms(zwo.ask(":GS#").decode()[:-1])
+        mount_lst = wire_values.parse_hms(emulator.ask(":GS#").decode()[:-1])
         assert abs(sky.wrap_hours_12(ours_lst - mount_lst)) <= 1.5 / 3600
-        ours = protocol.parse_time(zwo.ask(":GL#").decode()[:-1])
-        mount = protocol.parse_time(emulator.ask(":GL#").decode()[:-1])
+        ours = wire_values.parse_time(zwo.ask(":GL#").decode()[:-1])
+        mount = wire_values.parse_time(emulator.ask(":GL#").decode()[:-1])
         assert abs((ours.hour * 3600 + ours.minute * 60 + ours.second)
                    - (mount.hour * 3600 + mount.minute * 60 + mount.second)) % 86400 in (0, 1, 86399)
         # Unknown and miscased commands: silence, as from the mount.
@@ -212,7 +212,7 @@ def test_altitude_limit_is_e6(server_factory: ServerFactory) -> None:
     server = server_factory(settings)
     client = ZwoClient(server.zwo_port.port)
     try:
-        lst = protocol.parse_hms(client.ask(":GS#").decode()[:-1])
+        lst = wire_values.parse_hms(client.ask(":GS#").decode()[:-1])
         assert _goto(client, lst, -10.0) == b"e6#"  # altitude about 28.5 degrees
     finally:
         client.close()
@@ -268,7 +268,7 @@ def test_alpacas_abort_stops_a_zwo_goto(server: AlpacaZwoServer, alpaca: AlpacaT
     until(lambda: b"N" not in zwo.ask(":GU#"), 5, "the GOTO to show in :GU#")
     alpaca.AbortSlew()
     until(lambda: b"N" in zwo.ask(":GU#"), 5, "the ZWO program to see the abort")
-    ra, dec = protocol.parse_hms(zwo.ask(":GR#").decode()[:-1]), protocol.parse_dms(zwo.ask(":GD#").decode()[:-1])
+    ra, dec = wire_values.parse_hms(zwo.ask(":GR#").decode()[:-1]), wire_values.parse_dms(zwo.ask(":GD#").decode()[:-1])
     assert sky.angular_separation(ra, dec, *target) > 5.0
 
 
@@ -279,7 +279,7 @@ def test_sync_and_targets_are_per_program(server: AlpacaZwoServer, alpaca: Alpac
         assert _goto(zwo, ra, 40.0) == b"0"
         _wait_idle(alpaca)
         assert other.ask(":Sr01:00:00#") == b"1"  # another program's target does not move ours
-        assert zwo.ask(":Gr#") == (protocol.format_hms(ra) + "#").encode()
+        assert zwo.ask(":Gr#") == (wire_values.format_hms(ra) + "#").encode()
         assert zwo.ask(":Sd+40*06:00#") == b"1"
         assert zwo.ask(":CM#") == b"N/A#"
         until(lambda: abs(alpaca.Declination - 40.1) < 2 / 3600, 5, "the sync")

@@ -12,13 +12,13 @@ from datetime import datetime, timezone
 import pytest
 from emuclient import MountClient
 
-from alpaca_zwo import protocol, sky
+from alpaca_zwo import protocol, sky, wire_values
 from alpaca_zwo.emulator.model import FACTORY_LONGITUDE
 
 HMS = r"\d{2}:\d{2}:\d{2}"
 _POWER_UP_LST = sky.local_sidereal_time(datetime(2000, 1, 1, tzinfo=timezone.utc), FACTORY_LONGITUDE)
-POWER_UP_GS = protocol.format_hms(_POWER_UP_LST) + "#"
-POWER_UP_GR = protocol.format_hms(_POWER_UP_LST + 6.0) + "#"  # home: RA = LST + 6 h
+POWER_UP_GS = wire_values.format_hms(_POWER_UP_LST) + "#"
+POWER_UP_GR = wire_values.format_hms(_POWER_UP_LST + 6.0) + "#"  # home: RA = LST + 6 h
 
 # (request, expected reply: exact text or compiled regex, optional (follow-up query, its reply))
 Row = tuple[str, "str | re.Pattern[str]", "tuple[str, str] | None"]

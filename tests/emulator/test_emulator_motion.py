@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from emuclient import MountClient, flags, initialize, slew, target_at, wait_slew
 
-from alpaca_zwo import protocol, sky
+from alpaca_zwo import protocol, sky, wire_values
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 
@@ -437,8 +437,8 @@ def test_home_slew_ends_at_the_pole_with_tracking_off_and_h(
     assert ready.ask(":Gm#") == "N#"
     assert ready.ask(":GD#") == "+90*00:00#"
     assert ready.ask(":GAT#") == "0#"
-    lst = protocol.parse_hms(ready.ask(":GS#")[:-1])
-    ra = protocol.parse_hms(ready.ask(":GR#")[:-1])
+    lst = wire_values.parse_hms(ready.ask(":GS#")[:-1])
+    ra = wire_values.parse_hms(ready.ask(":GR#")[:-1])
     assert sky.wrap_hours_12(ra - lst - 6.0) == pytest.approx(0.0, abs=1.5 / 3600)
     assert ready.exact(":Te#") == "1"  # tracking leaves home...
     clock.advance(10.0)

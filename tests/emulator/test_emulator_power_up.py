@@ -7,7 +7,7 @@ from datetime import datetime, timedelta, timezone
 import pytest
 from emuclient import MountClient, flags, initialize
 
-from alpaca_zwo import protocol, sky
+from alpaca_zwo import sky, wire_values
 from alpaca_zwo.emulator import ManualClock, MountModel
 from alpaca_zwo.emulator.model import FACTORY_LATITUDE, FACTORY_LONGITUDE
 
@@ -39,8 +39,8 @@ def test_power_up_state_matches_a_real_am5(mount: MountClient) -> None:
 
 def test_home_reads_ra_lst_plus_six_hours(mount: MountClient) -> None:
     """AM5N at home: :GR# 09:31:44 while :GS# 03:31:44 (field notes §5.2)."""
-    lst = protocol.parse_hms(mount.ask(":GS#")[:-1])
-    ra = protocol.parse_hms(mount.ask(":GR#")[:-1])
+    lst = wire_values.parse_hms(mount.ask(":GS#")[:-1])
+    ra = wire_values.parse_hms(mount.ask(":GR#")[:-1])
     assert sky.wrap_hours_12(ra - lst - 6.0) == pytest.approx(0.0, abs=1.5 / 3600)
 
 
@@ -57,7 +57,7 @@ def test_sidereal_time_follows_the_mounts_clock_and_site(mount: MountClient, clo
     initialize(mount, clock, utc_offset_hours=8.0)
     assert mount.ask(":GG#") == "-08:00#"  # the negated offset
     expected = sky.local_sidereal_time(clock.now(), FACTORY_LONGITUDE)
-    got = protocol.parse_hms(mount.ask(":GS#")[:-1])
+    got = wire_values.parse_hms(mount.ask(":GS#")[:-1])
     assert sky.wrap_hours_12(got - expected) == pytest.approx(0.0, abs=1.5 / 3600)
     local = clock.now() + timedelta(hours=8)
     assert mount.ask(":GL#") == f"{local:%H:%M:%S}#"
@@ -65,9 +65,9 @@ def test_sidereal_time_follows_the_mounts_clock_and_site(mount: MountClient, clo
 
 def test_dst_moves_utc_by_an_hour(mount: MountClient, clock: ManualClock) -> None:
     initialize(mount, clock)
-    before = protocol.parse_hms(mount.ask(":GS#")[:-1])
+    before = wire_values.parse_hms(mount.ask(":GS#")[:-1])
     assert mount.exact(":SH1#") == "1"
-    after = protocol.parse_hms(mount.ask(":GS#")[:-1])
+    after = wire_values.parse_hms(mount.ask(":GS#")[:-1])
     assert sky.wrap_hours_12(before - after) == pytest.approx(1.00273790935, abs=2 / 3600)
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 from emuclient import MountClient, flags, slew, target_at, wait_slew
 
-from alpaca_zwo import protocol
+from alpaca_zwo import wire_values
 from alpaca_zwo.emulator import PRESETS, FirmwareVariant, ManualClock, MountModel, preset
 from alpaca_zwo.firmware import has_feature
 from alpaca_zwo.sky import SIDEREAL_DEG_S
@@ -91,19 +91,19 @@ def test_gh_variants(mount: MountClient, clock: ManualClock, before: str, after:
 
 @pytest.mark.parametrize("firmware", [FirmwareVariant(compound_goto_sync=True)])
 def test_compound_goto_and_sync_work_as_documented(ready: MountClient, model: MountModel, clock: ManualClock) -> None:
-    ra = protocol.format_hms(target_at(model, -2.0))
+    ra = wire_values.format_hms(target_at(model, -2.0))
     assert ready.exact(f":SMeq{ra}&+30*00:00#") == "0"
     assert ready.ask(":GMeq#") == f"{ra}&+30*00:00#"
     wait_slew(ready, clock)
     assert ready.ask(":GMEQ#") == f"{ra}&+30*00:00#"
-    synced = protocol.format_hms(protocol.parse_hms(ra) + 1 / 60)
+    synced = wire_values.format_hms(wire_values.parse_hms(ra) + 1 / 60)
     assert ready.exact(f":SMMC{synced}&+30*10:00#") == f"{synced}&+30*10:00#"
     assert ready.ask(":GMEQ#") == f"{synced}&+30*10:00#"
     assert ready.exact(":SMeq12:00:00&+95*00:00#") == "e2#"  # still checks its arguments
 
 
 def test_compound_goto_and_sync_answer_e2_on_real_firmware(ready: MountClient, model: MountModel) -> None:
-    ra = protocol.format_hms(target_at(model, -2.0))
+    ra = wire_values.format_hms(target_at(model, -2.0))
     assert ready.exact(f":SMeq{ra}&+30*00:00#") == "e2#"
     assert "N" in flags(ready)
     assert ready.exact(f":SMMC{ra}&+30*00:00#") == "e2#"

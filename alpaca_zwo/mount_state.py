@@ -1,0 +1,79 @@
+"""What the server knows about the mount: the immutable snapshot one poller swaps, and its parts.
+
+Value types only, so readers (telescope, motion, web, bridges) can hold and pass a snapshot without
+touching :class:`~alpaca_zwo.mount.Mount` or the serial line.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+from .firmware import has_feature
+from .link import LinkStatus
+from .protocol import TrackingState
+from .wire_values import MeridianSettings, MountMode, MountStatus, TrackRate
+
+
+@dataclass(frozen=True)
+class MountInfo:
+    """Identity read at connect; the firmware version gates features (field notes §5.6)."""
+
+    model: str
+    firmware: str
+
+    @property
+    def has_meridian_settings(self) -> bool:
+        return has_feature(self.firmware, "meridian_settings")
+
+
+@dataclass(frozen=True)
+class MountSettings:
+    """Settings stored in the mount itself, read on demand (not polled)."""
+
+    meridian: MeridianSettings | None
+    limits_enabled: bool | None
+    upper_limit: int | None
+    lower_limit: int | None
+    heavy_duty: bool | None
+    buzzer: int | None
+    guide_rate: float | None
+    daylight_saving: bool | None = None
+
+
+@dataclass(frozen=True)
+class MountState:
+    """One coherent picture of the mount. Each group of values carries the time it was read."""
+
+    time: float  # monotonic time this snapshot was published
+    ra: float | None = None  # hours, best estimate (sub-arcsecond)
+    dec: float | None = None  # degrees
+    raw_ra: float | None = None  # as the mount printed them
+    raw_dec: float | None = None
+    position_time: float | None = None  # monotonic time of the reading
+    status: MountStatus | None = None
+    status_time: float | None = None
+    tracking: TrackingState | None = None
+    pier: str | None = None  # 'E', 'W' or 'N' (home)
+    tracking_rate: TrackRate = TrackRate.SIDEREAL
+    guide_rate: float = 0.5
+    moving_axes: frozenset[int] = frozenset()
+    link: LinkStatus | None = None
+    info: MountInfo | None = None
+    initialised: bool = False  # time and site pushed since the link last (re)connected
+    poll_error: str = ""
+
+    def age(self, now: float | None = None) -> float | None:
+        """Seconds since the position was read (None: never)."""
+        if self.position_time is None:
+            return None
+        return (time.monotonic() if now is None else now) - self.position_time
+
+    @property
+    def goto_running(self) -> bool:
+        return bool(self.status and self.status.slewing)
+
+    @property
+    def altaz(self) -> bool:
+        """Alt-az mode as the last ``:GU#`` said (``Z``); the mount reads its mode only at power-up."""
+        return self.status is not None and self.status.mode is MountMode.ALTAZ
