@@ -355,12 +355,27 @@ class Mount:
                 self.link.send_urgent(protocol.stop_direction(previous))  # :Me# does not end a running :Mw#
                 del self._move_directions[axis]
                 self._drift[axis] = 0.0
-            self._exec(protocol.set_variable_speed(multiple))
+            self._set_variable_speed(multiple)  # then the move: a timed pulse's start is its own
             self._exec(protocol.move(direction), guard=guard)
             self._move_directions[axis] = direction
             rate_deg_s = (multiple if rate_deg_s > 0 else -multiple) * SIDEREAL_DEG_S
         self._drift[axis] = rate_deg_s
         self._rate_changed()
+
+    def _set_variable_speed(self, multiple: float) -> None:
+        """``:Rv``, then wait until its bytes are on their way out of the line before the move follows.
+
+        A ``:Rv…#`` written just before ``:M?#`` delays the move's start by its 9 bytes on the wire
+        (9.4 ms at 9600 baud), while the stop that ends a timed pulse has no such prefix: every alt-az
+        pulse came out 9.4 ms short (a 0.05″/s offset paid in 7 ms pulses ran 25% slow on the
+        emulator). Waiting out the wire time at the link's baud makes the move's own command the only
+        thing between the recorded start and the motion, as the stop is for the end. Over WiFi the
+        wait only costs those milliseconds. (Skipping a repeated ``:Rv`` would save them, but a mount
+        that rebooted unseen would then move at its power-up speed, the fastest.)"""
+        request = protocol.set_variable_speed(multiple)
+        self._exec(request)
+        if self.link.baud:
+            time.sleep(len(request.wire) * 10.0 / self.link.baud)
 
     @staticmethod
     def _axis_directions(axis: int) -> tuple[Direction, Direction]:

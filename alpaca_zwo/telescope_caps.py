@@ -39,7 +39,6 @@ class CapabilitiesMixin:
         @property
         def settings(self) -> Settings: ...
         def _require_connected(self) -> None: ...
-        def _altaz_mode(self) -> bool: ...
 
     # -- capabilities ------------------------------------------------------------------------
 
@@ -86,10 +85,10 @@ class CapabilitiesMixin:
         return False
 
     def can_set_declination_rate(self) -> bool:
-        return not self._altaz_mode()  # offsets ride on :Mg pulses, which move nothing in alt-az
+        return True  # paid in guide pulses, which are timed moves in alt-az (motion/guiding.py)
 
     def can_set_right_ascension_rate(self) -> bool:
-        return not self._altaz_mode()
+        return True
 
     def can_move_axis(self, axis: int) -> bool:
         if axis not in (0, 1, 2):
@@ -146,9 +145,6 @@ class CapabilitiesMixin:
         return self.mount.state.tracking_rate is TrackRate.SIDEREAL
 
     def _set_rate_offset(self, axis: int, value: float, arcsec_s: float, name: str, unit: str) -> None:
-        if self._altaz_mode():
-            raise MemberNotImplemented(f"{name} cannot be set in alt-az mode: the offsets are paid in the mount's "
-                                       "guide pulses, which move nothing there")
         self._require_connected()
         if not self._sidereal():
             raise InvalidOperation(f"{name} can only be set while TrackingRate is sidereal (Platform 7)")

@@ -4,9 +4,11 @@ The server runs on its built-in emulator (in process, so the emulator's own trut
 each rate pair the mount slews to a start point, the offsets are set, and for ``--minutes`` of mount
 time the emulator's reported position is sampled against the ephemeris (start + rate x elapsed).
 Guide pulses run at the default 0.5x guide rate. Prints RMS and max error per case and overall.
+``--mode altaz`` starts the emulated mount in alt-az mode, where the pulses are timed moves.
 
-    python -m benchmarks.comet              # 10 minutes per case at 5x (about 6 minutes in all)
+    python -m benchmarks.comet              # 10 minutes per case at 5x (about 9 minutes in all)
     python -m benchmarks.comet --minutes 2  # quicker
+    python -m benchmarks.comet --mode altaz
 """
 
 from __future__ import annotations
@@ -75,11 +77,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.comet", description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=10.0, help="mount minutes per case (default 10)")
     parser.add_argument("--speed", type=float, default=5.0, help="emulator clock rate (default 5x)")
+    parser.add_argument("--mode", choices=("eq", "altaz"), default="eq", help="the emulated mount's mode")
     args = parser.parse_args()
     settings = assign_unique_ids(Settings(
         server=ServerSettings(host="127.0.0.1", port=0, discovery_port=0),
         site=SiteSettings(latitude=51.4769, longitude=-0.0005, elevation=46.0),
-        emulator=EmulatorSettings(speed=args.speed, baud=9600),
+        emulator=EmulatorSettings(speed=args.speed, baud=9600, mode=args.mode),
     ))
     with tempfile.TemporaryDirectory() as tmp:
         server = AlpacaZwoServer(SettingsStore(settings, Path(tmp) / "config.toml"))
@@ -89,7 +92,8 @@ def main() -> None:
             client.put("connected", Connected="True")
             client.put("tracking", Tracking="True")
             everything: list[float] = []
-            print(f"emulator {args.speed:g}x at 9600 baud, {args.minutes:g} mount minutes per case, guide rate 0.5x")
+            print(f"emulator {args.speed:g}x at 9600 baud, {args.mode} mode, {args.minutes:g} mount minutes per case, "
+                  "guide rate 0.5x")
             print(f"{'RA ″/s':>8} {'Dec ″/s':>8} {'samples':>8} {'RMS ″':>7} {'p95 ″':>7} {'max ″':>7}")
             for ra_rate, dec_rate in CASES:
                 errors = run_case(server, client, ra_rate, dec_rate, args.minutes)

@@ -4,22 +4,21 @@ The built-in emulator starts in alt-az mode (``[emulator] mode = "altaz"``, as a
 restart). Facts from shared/zwo/field-notes.md: ``:GU#`` shows ``Z`` in alt-az mode (§3); the mount's
 guide pulses (``:Mg``) produce no measurable movement there (§2.5, PT), so the server guides with
 timed moves at the guide speed instead (``:Rv`` + ``:M?#``, which keep their sky meaning) and never
-sends ``:Mg``; the rate offsets, paid in ``:Mg`` pulses, are not offered; ``:AA#``/``:AP#`` need a
-restart (§2.8). ASCOM: AlignmentMode algAltAz (0), SideOfPier/DestinationSideOfPier pierUnknown (-1)
+sends ``:Mg``; the rate offsets, paid in pulses, are paid in those timed moves; ``:AA#``/``:AP#`` need
+a restart (§2.8). ASCOM: AlignmentMode algAltAz (0), SideOfPier/DestinationSideOfPier pierUnknown (-1)
 for a mount that has no pier side.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import pytest
 import requests
-from alpaca.exceptions import InvalidOperationException, NotImplementedException
+from alpaca.exceptions import InvalidOperationException
 from alpaca.telescope import AlignmentModes, GuideDirections, PierSide, TelescopeAxes
 from alpaca.telescope import Telescope as AlpycaTelescope
 
@@ -73,11 +72,6 @@ def rig(server_factory: ServerFactory) -> Iterator[Rig]:
     rig.scope.Connected = False
 
 
-def _rounding_arcsec(dec: float) -> float:
-    """How far a target rounded to the mount's whole seconds of RA can lie from the request, plus 1"."""
-    return 0.5 * 15.0 * math.cos(math.radians(dec)) + 1.0
-
-
 def _ra_at_ha(scope: AlpycaTelescope, ha: float) -> float:
     return (scope.SiderealTime - ha) % 24.0
 
@@ -93,7 +87,7 @@ def test_alignment_mode_and_capabilities(rig: Rig) -> None:
     assert scope.AlignmentMode == AlignmentModes.algAltAz
     assert scope.CanPulseGuide is True  # as timed moves: :Mg moves nothing in alt-az
     assert scope.CanSetPierSide is False
-    assert scope.CanSetRightAscensionRate is False and scope.CanSetDeclinationRate is False
+    assert scope.CanSetRightAscensionRate is True and scope.CanSetDeclinationRate is True
     assert scope.SideOfPier == PierSide.pierUnknown
     assert scope.DestinationSideOfPier(_ra_at_ha(scope, 2.0), 40.0) == PierSide.pierUnknown
     assert scope.DestinationSideOfPier(_ra_at_ha(scope, -2.0), 40.0) == PierSide.pierUnknown
@@ -103,17 +97,6 @@ def test_alignment_mode_and_capabilities(rig: Rig) -> None:
     # Still the ordinary reads.
     assert 0.0 <= scope.Altitude <= 90.0 and 0.0 <= scope.Azimuth < 360.0
     assert scope.RightAscensionRate == 0.0 and scope.DeclinationRate == 0.0
-
-
-def test_rate_offsets_are_refused_and_nothing_is_sent(rig: Rig) -> None:
-    """The offsets are paid in :Mg pulses, which move nothing in alt-az (PT, §2.5): NotImplemented (0x400)."""
-    start = rig.trace_length()
-    with pytest.raises(NotImplementedException, match="alt-az"):
-        rig.scope.RightAscensionRate = 0.001
-    with pytest.raises(NotImplementedException, match="alt-az"):
-        rig.scope.DeclinationRate = 0.5
-    assert not [r for r in rig.sent_since(start) if r.startswith((":Mg", ":Rv", ":M"))]
-    assert rig.model.pulsing() == (False, False)
 
 
 def _tracking_on_a_star(rig: Rig) -> None:
@@ -175,6 +158,32 @@ def test_a_pulse_in_the_opposite_direction_replaces_the_running_one(rig: Rig) ->
     assert abs(rig.model.position()[1] - before[1]) * 3600.0 < 3.0
 
 
+@pytest.mark.parametrize("pulse", [False, True])
+def test_rate_offsets_move_the_pointing_at_the_rate_with_and_without_a_pulse(rig: Rig, pulse: bool) -> None:
+    """RightAscensionRate/DeclinationRate are paid in guide pulses, timed moves in alt-az: after T mount
+    seconds the true position has moved by rate x T (plus a client pulse's 15″ north when one runs too)."""
+    _tracking_on_a_star(rig)
+    start = rig.trace_length()
+    before, t0 = rig.model.position(), rig.mount_seconds()
+    rig.scope.RightAscensionRate = 0.2  # seconds of RA per sidereal second: 3.0″/s of RA
+    rig.scope.DeclinationRate = 3.0  # arcsec per second
+    if pulse:
+        _wait_mount_seconds(rig, 3.0)
+        rig.scope.PulseGuide(GuideDirections.guideNorth, 2000)
+    _wait_mount_seconds(rig, 12.0 - (rig.mount_seconds() - t0))
+    rig.scope.RightAscensionRate = 0.0
+    rig.scope.DeclinationRate = 0.0
+    elapsed = rig.mount_seconds() - t0
+    _wait_mount_seconds(rig, 1.0)  # nothing more accrues once the rates are 0
+    after = rig.model.position()
+    d_ra_s = ((after[0] - before[0] + 12.0) % 24.0 - 12.0) * 3600.0
+    assert d_ra_s == pytest.approx(0.2 * 1.00273790935 * elapsed, abs=0.15)  # 0.15 s of time = 2.25″
+    d_dec = (after[1] - before[1]) * 3600.0
+    assert d_dec == pytest.approx(3.0 * elapsed + (15.0 if pulse else 0.0), abs=2.0)
+    assert sky.angular_separation(rig.scope.RightAscension, rig.scope.Declination, *rig.model.position()) < 3 * ARCSEC
+    assert not [r for r in rig.sent_since(start) if r.startswith(":Mg")]
+
+
 @pytest.mark.parametrize("stop", ["AbortSlew", "last client disconnects"])
 def test_a_stop_ends_a_pulse_and_the_mount_holds_still(rig: Rig, stop: str) -> None:
     """Safety: AbortSlew, and the last client going away, end a running alt-az pulse (a move that nobody
@@ -213,17 +222,16 @@ def test_slews_land_where_asked_and_track(rig: Rig, ha: float, dec: float) -> No
     scope.SlewToCoordinatesAsync(ra, dec)
     assert scope.Slewing
     rig.wait_slew("the slew to end")
-    # The mount lands on the target it was given within an arcsecond; that target is the request rounded
-    # to the mount's whole seconds of RA. (In EQ mode the server removes the rounding with a short guide
-    # pulse; pulses move nothing in alt-az, so here the rounding stays: at most 0.5 s of RA.)
-    assert sky.angular_separation(*rig.model.position(), *rig.model.target()) < ARCSEC
-    assert sky.angular_separation(*rig.model.position(), ra, dec) < _rounding_arcsec(dec) * ARCSEC
+    # The mount was given the request rounded to its whole seconds of RA (up to 7.5″ off); the server
+    # guides the rest away after arrival, in alt-az with a timed move (:Mg moves nothing there), so the
+    # mount points at the request itself.
+    assert sky.angular_separation(*rig.model.position(), ra, dec) < ARCSEC
     # The mount's axes are the azimuth and altitude of where it points.
     snapshot = rig.model.snapshot()  # one instant (the emulated clock runs on)
     assert snapshot["secondary_deg"] == pytest.approx(snapshot["alt_deg"], abs=1e-6)
     assert sky.wrap_degrees_360(snapshot["primary_deg"]) == pytest.approx(snapshot["az_deg"], abs=1e-6)
     assert scope.Tracking is True
-    assert sky.angular_separation(scope.RightAscension, scope.Declination, ra, dec) < _rounding_arcsec(dec) * ARCSEC
+    assert sky.angular_separation(scope.RightAscension, scope.Declination, ra, dec) < ARCSEC
     assert scope.SideOfPier == PierSide.pierUnknown
 
 
@@ -237,7 +245,8 @@ def test_tracking_keeps_ra_and_dec_fixed_while_the_axes_turn(rig: Rig) -> None:
     assert sky.angular_separation(*truth0, *rig.model.position()) < 0.1 * ARCSEC
     axes1 = rig.model.axes()
     assert abs(axes1[0] - axes0[0]) > 0.05 or abs(axes1[1] - axes0[1]) > 0.05  # both axes carry the star
-    assert sky.angular_separation(scope.RightAscension, scope.Declination, ra, dec) < _rounding_arcsec(dec) * ARCSEC
+    assert sky.angular_separation(scope.RightAscension, scope.Declination, ra, dec) < ARCSEC
+    assert sky.angular_separation(*rig.model.position(), ra, dec) < ARCSEC
     assert scope.Tracking is True
 
 

@@ -79,16 +79,12 @@ class ManualMove:
 class Pulse:
     """A guide pulse sent in chunks of at most 3 s: ``remaining_ms`` not yet sent, and the mount time
     by which the whole pulse should be over (a link failure may cost pulse time, nothing else may).
-
-    ``by_move``: alt-az mode, where the mount's ``:Mg`` moves nothing (field notes §2.5). The pulse is
-    a move at the guide speed, relative to the sky like a pulse, that the supervisor stops at
-    ``chunk_end`` (the whole pulse: a move needs no chunks)."""
+    In alt-az mode the whole pulse is one chunk (a timed move, see ``guiding.py``)."""
 
     direction: Direction
     remaining_ms: int
     deadline: float
     chunk_end: float
-    by_move: bool = False
 
 
 def _wrap12(hours: float) -> float:

@@ -58,6 +58,8 @@ class LandingMixin:
 
     if TYPE_CHECKING:  # provided by MotionSupervisor
         def _guard(self, generation: int) -> Callable[[], bool]: ...
+        def _guide_pulse(self, direction: Direction, milliseconds: int,
+                         guard: Callable[[], bool] | None = None, offset: bool = False) -> float: ...
         def _settle(self, motion: Motion, now: float) -> None: ...
         def _at_rest(self, motion: Motion, now: float) -> bool: ...
         def _tick_motion(self, now: float, state: MountState) -> None: ...
@@ -107,8 +109,8 @@ class LandingMixin:
             ms = round(abs(delta) / guide_deg_s * 1000.0)
             if ms >= MIN_PULSE_MS:
                 direction = positive if delta > 0 else negative
-                end = max(end, self.mount.pulse_guide(direction, min(ms, PULSE_CHUNK_MS),
-                                                      guard=self._guard(motion.generation)))
+                end = max(end, self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS),
+                                                 guard=self._guard(motion.generation)))
         landing.pulse_end = end
         self._after_arrival(motion)
         motion.phase = Phase.LANDING if end > now else Phase.SETTLING
@@ -137,7 +139,7 @@ class LandingMixin:
         if ms >= MIN_PULSE_MS:
             direction = Direction.NORTH if d_dec > 0 else Direction.SOUTH
             try:
-                self.mount.pulse_guide(direction, ms, guard=self._guard(motion.generation))
+                self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(motion.generation))
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.debug("Dec residual pulse not sent: %s", exc)
 

@@ -17,6 +17,9 @@ cannot be paid in pulses; it runs instead as a slow continuous move at the mount
 (``:Rv``, steps of 0.01x sidereal = 0.15″/s), which is relative to the sky like tracking itself.
 Pulses give 1 ms granularity (0.0075″ at 0.5x); moves 0.15″/s. The largest offset is
 ``MAX_OFFSET_ARCSEC`` per second.
+
+In alt-az mode the mount's pulses move nothing, and a "pulse" is a move the supervisor times
+(``guiding.py``): the same schedule then pays the offsets in timed moves, granularity a few ms.
 """
 
 from __future__ import annotations
@@ -29,10 +32,11 @@ from typing import TYPE_CHECKING
 from .._exceptions import LinkError, MotionCancelled, MountReplyError, ProtocolError
 from ..mount import PULSE_CHUNK_MS, Mount
 from ..mount_state import MountState
-from ..sky import SIDEREAL_DEG_S
+from ..sky import SIDEREAL_DEG_S, SOLAR_SECONDS_PER_SIDEREAL_SECOND
 from ..wire_values import Direction
 
 if TYPE_CHECKING:
+    from .guiding import TimedMove
     from .kinds import ManualMove, Motion, Pulse
 
 log = logging.getLogger(__name__)
@@ -46,8 +50,6 @@ MAX_OFFSET_ARCSEC = 600.0
 MAX_DUTY = 0.9
 #: Owed displacement below this many milliseconds of pulse waits for the next cycle.
 MIN_PULSE_MS = 5
-#: One SI second is this many sidereal seconds: RightAscensionRate is in RA seconds per sidereal second.
-SIDEREAL_PER_SI = 1.00273790935
 
 _DIRECTIONS = ((Direction.EAST, Direction.WEST), (Direction.NORTH, Direction.SOUTH))
 
@@ -64,7 +66,7 @@ def guide_speed_arcsec(guide_rate: float) -> float:
 
 def ra_rate_to_arcsec(seconds_per_sidereal_second: float) -> float:
     """ASCOM RightAscensionRate (RA seconds per sidereal second) in arcseconds of RA per SI second."""
-    return seconds_per_sidereal_second * 15.0 * SIDEREAL_PER_SI
+    return seconds_per_sidereal_second * 15.0 / SOLAR_SECONDS_PER_SIDEREAL_SECOND
 
 
 @dataclass
@@ -128,6 +130,11 @@ class RateOffsets:
         axis.owed -= paid if direction is positive else -paid
         return direction, ms
 
+    def overran(self, index: int, arcsec: float) -> None:
+        """An offset pulse moved ``arcsec`` (signed) more than it was booked for (alt-az timed moves)."""
+        if self.active:
+            self.axes[index].owed -= arcsec
+
     def sent(self, index: int, end: float, ms: int, direction: Direction, guide_arcsec_s: float) -> None:
         axis = self.axes[index]
         axis.pulse_end = end
@@ -143,11 +150,14 @@ class OffsetsMixin:
     motion: Motion | None
     moves: dict[int, ManualMove]
     pulses: dict[int, Pulse]
+    timed_moves: dict[int, TimedMove]
     generation: int
 
     if TYPE_CHECKING:  # provided by MotionSupervisor
         def _guard(self, generation: int) -> Callable[[], bool]: ...
         def _notify(self) -> None: ...
+        def _guide_pulse(self, direction: Direction, milliseconds: int,
+                         guard: Callable[[], bool] | None = None, offset: bool = False) -> float: ...
 
     def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
         """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east)."""
@@ -157,21 +167,20 @@ class OffsetsMixin:
     def _tick_offsets(self, now: float, state: MountState) -> None:
         """Pay the rate offsets: guide pulses for small ones, a slow move for large (see offsets.py)."""
         offsets = self.offsets
-        if state.altaz:  # offsets are refused there; the slow moves in alt-az are guide pulses
-            offsets.reset()
-            return
-        drifting = any(self.mount.drift_rates)
+        # An axis running an alt-az pulse (a timed move, guiding.py) belongs to that pulse until it ends.
+        own = [axis for axis in (0, 1) if axis not in self.timed_moves]
+        drifting = any(self.mount.drift_rates[axis] for axis in own)
         if not offsets.active and not drifting:
             return
         tracking = bool(state.tracking and state.tracking.on)
         if self.motion is not None or self.moves or not tracking or not offsets.active:
             offsets.reset()  # a slew or a stop starts the offset path afresh from where it ends
             if drifting and self.motion is None and not self.moves:
-                self._drift(0, 0.0)
-                self._drift(1, 0.0)
+                for axis in own:
+                    self._drift(axis, 0.0)
             return
         guide = guide_speed_arcsec(state.guide_rate)
-        for axis in (0, 1):
+        for axis in own:
             rate = offsets.axes[axis].rate
             wanted = 0.0 if by_pulses(rate, guide) else rate / 3600.0
             if abs(wanted - self.mount.drift_rates[axis]) > 0.01 * SIDEREAL_DEG_S:
@@ -195,7 +204,8 @@ class OffsetsMixin:
                 continue
             direction, ms = pulse
             try:
-                end = self.mount.pulse_guide(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation))
+                end = self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation),
+                                        offset=True)
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.debug("rate offset pulse not sent: %s", exc)
                 offsets.axes[axis].owed += ms / 1000.0 * guide * (1 if direction in (Direction.EAST, Direction.NORTH)

@@ -10,6 +10,8 @@ Lock rules (the reason this module exists):
 - ``_start_lock`` serialises motion *starts* (GOTO, MoveAxis, home, park, pulses). It may be held
   across serial I/O and waits. **Stop paths never take it.**
 - ``_lock`` guards this object's fields. It is never held across I/O or a wait.
+- ``_timed_lock`` makes starting or ending one alt-az timed pulse (``guiding.py``) a single step; it
+  is held across that one move command, never by ``abort`` (whose ``:Q#`` ends every move anyway).
 - The link's write lock is held only for one ``write``. A stop bumps :attr:`generation` under
   ``_lock`` and then writes its reply-less ``:Q#`` through the link's urgent lane; every motion
   command carries a guard ("generation unchanged") that the link checks under its write lock right
@@ -22,8 +24,9 @@ after it show the mount at rest (consecutive positions stable in the frame the m
 RA/Dec while tracking, HA/Dec when not) *and* the braking time predicted from its last speed has
 passed. Slewing stays true until then.
 
-Landing exactly where asked lives in ``landing.py``; rest detection in ``rest.py``; braking-aware
-limits in ``limits.py``.
+Guide pulses (and the alt-az timed moves that stand in for them) live in ``guiding.py``; landing
+exactly where asked in ``landing.py``; rate offsets in ``offsets.py``; rest detection in ``rest.py``;
+braking-aware limits in ``limits.py``.
 """
 
 from __future__ import annotations
@@ -51,10 +54,9 @@ from .._exceptions import (
 )
 from ..clients import ClientKey, ClientRegistry
 from ..config import Settings
-from ..mount import PULSE_CHUNK_MS, Mount
+from ..mount import Mount
 from ..mount_state import MountState
-from ..sky import SIDEREAL_DEG_S
-from ..wire_values import Direction
+from .guiding import GuidingMixin, TimedMove
 from .kinds import (
     DECELERATION_DEG_S2,
     MAX_MOTION_S,
@@ -80,7 +82,7 @@ IDLE_TICK_S = 1.0
 
 
 
-class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
+class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
     """Starts, watches, lands and stops every motion of one mount (see the module docstring)."""
 
     def __init__(
@@ -98,11 +100,13 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         self.registry = registry
         self._start_lock = threading.Lock()
         self._lock = threading.Lock()
+        self._timed_lock = threading.Lock()
         self._wake = threading.Condition()
         self.generation = 0
         self.motion: Motion | None = None
         self.moves: dict[int, ManualMove] = {}
         self.pulses: dict[int, Pulse] = {}
+        self.timed_moves: dict[int, TimedMove] = {}  # alt-az pulse moves (guiding.py)
         self.settle_s = 0.0
         self.parked = False
         self.offsets = RateOffsets()
@@ -135,6 +139,7 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
             moving = previous is not None or self.moves or state.moving_axes or state.goto_running
             self.moves.clear()
             self.pulses.clear()
+            self.timed_moves.clear()  # :Q# stops them with everything else
             self.offsets.reset()
             self.motion = self._stopping(speed, previous) if moving else None
         try:
@@ -176,14 +181,13 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
 
     def stop_manual(self, why: str) -> None:
         """Stop manual moves and pulses (last client gone, server shutting down)."""
-        if not self.moves and not self.mount.state.moving_axes and not self.pulses:
+        if not self.moves and not self.mount.state.moving_axes and not self.pulses and not self.timed_moves:
             return
         log.warning("stopping manual motion: %s", why)
-        for axis, pulse in list(self.pulses.items()):
-            if pulse.by_move:
-                self._end_move_pulse(axis, pulse)
         with self._lock:
             self.pulses.clear()
+        for axis in list(self.timed_moves):
+            self._end_timed_move(axis)
         for axis in (0, 1):
             if axis in self.moves or axis in self.mount.state.moving_axes:
                 self.stop_axis(axis, "")
@@ -193,6 +197,8 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         try:
             self.mount.stop()
             self._stop_pending = ""
+            with self._lock:
+                self.timed_moves.clear()
             log.warning("mount stopped: %s", why)
         except (LinkError, ProtocolError) as exc:
             if not self._stop_pending:
@@ -333,63 +339,6 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
                 self.moves[axis] = ManualMove(rate, owner)
         self._notify()
 
-    def pulse(self, direction: Direction, duration_ms: int) -> None:
-        """Start a guide pulse of any length (sent in chunks the mount accepts)."""
-        if self.motion is not None and self.motion.kind is not MotionKind.STOP:
-            raise InvalidOperation(f"cannot pulse guide during a {self.motion.kind.value}")
-        if duration_ms == 0:
-            return
-        axis = 0 if direction in (Direction.EAST, Direction.WEST) else 1
-        if self.mount.state.altaz:
-            self._start_move_pulse(axis, direction, duration_ms)
-            return
-        chunk = min(duration_ms, PULSE_CHUNK_MS)
-        with self._start_lock:
-            self.offsets.refund(axis, self.mount.monotonic())  # this pulse replaces any offset pulse
-            generation = self.generation
-            try:
-                end = self.mount.pulse_guide(direction, chunk, guard=self._guard(generation))
-            except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:
-                if isinstance(exc, MotionCancelled):
-                    raise InvalidOperation("PulseGuide cancelled: a stop arrived while it was starting") from exc
-                raise driver_error("PulseGuide", exc) from exc
-            with self._lock:
-                if self.generation == generation:
-                    self.pulses[axis] = Pulse(direction, duration_ms - chunk,
-                                              end - chunk / 1000.0 + duration_ms / 1000.0, end)
-        self._notify()
-
-    def _start_move_pulse(self, axis: int, direction: Direction, duration_ms: int) -> None:
-        """Alt-az mode: the pulse as a move at the guide speed (``:Rv`` + ``:M?#``), stopped by the
-        supervisor at its end. The mount's own ``:Mg`` moves nothing in alt-az (field notes §2.5), while
-        its moves there keep their sky meaning, as pulses have."""
-        speed = self.mount.state.guide_rate * SIDEREAL_DEG_S
-        sign = 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
-        with self._start_lock:
-            generation = self.generation
-            try:
-                self.mount.drift(axis, sign * speed, guard=self._guard(generation))
-            except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:
-                if isinstance(exc, MotionCancelled):
-                    raise InvalidOperation("PulseGuide cancelled: a stop arrived while it was starting") from exc
-                raise driver_error("PulseGuide", exc) from exc
-            end = self.mount.monotonic() + duration_ms / 1000.0
-            with self._lock:
-                if self.generation == generation:
-                    self.pulses[axis] = Pulse(direction, 0, end, end, by_move=True)
-        self._notify()
-
-    def _end_move_pulse(self, axis: int, pulse: Pulse) -> None:
-        """Stop an alt-az pulse's move. A move that cannot be stopped is a runaway: stop everything."""
-        with self._lock:
-            if self.pulses.get(axis) is not pulse:
-                return  # replaced by a newer pulse (which owns the move now) or cleared by a stop
-            del self.pulses[axis]
-        try:
-            self.mount.drift(axis, 0.0)
-        except (LinkError, ProtocolError, MountReplyError) as exc:
-            self.safety_stop(f"ending an alt-az guide pulse failed: {exc}")
-
     def wait(self, motion: Motion, timeout: float = MAX_MOTION_S) -> None:
         """Block until ``motion`` has ended (synchronous Alpaca slews)."""
         if not motion.done.wait(timeout):
@@ -425,9 +374,11 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         a landing or an offset pulse is due), IDLE_TICK_S when nothing is: every start notifies."""
         now = self.mount.monotonic()
         rate = self.mount.clock_rate
-        busy = self.motion is not None or self.moves or self.pulses or self.offsets.active or self._stop_pending
+        busy = (self.motion is not None or self.moves or self.pulses or self.timed_moves or self.offsets.active
+                or self._stop_pending)
         delays = [TICK_S if busy else IDLE_TICK_S]
         delays.extend(max(0.0, pulse.chunk_end - now) / rate for pulse in self.pulses.values())
+        delays.extend(max(0.0, move.end - now) / rate for move in self.timed_moves.values())
         motion = self.motion
         landing = motion.landing if motion is not None and motion.phase is Phase.LANDING else None
         if landing is not None and landing.t_star is not None:
@@ -445,42 +396,12 @@ class MotionSupervisor(LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
         self._record_reading(state)
         now = self.mount.monotonic()
         self._tick_pulses(now)
+        self._tick_timed_moves(now)
         self._tick_offsets(now, state)
         self._tick_motion(now, state)
         self._tick_watchdog()
         self._tick_limits(state)
 
-
-    def _tick_pulses(self, now: float) -> None:
-        """Send the next chunk of long pulses. If the link is down, retry until the pulse's own end:
-        the mount carries on with the chunk it has, and the rest goes out once the link is back."""
-        for axis, pulse in list(self.pulses.items()):
-            if now < pulse.chunk_end:
-                continue
-            if pulse.by_move:
-                self._end_move_pulse(axis, pulse)
-                continue
-            if pulse.remaining_ms < 10:
-                with self._lock:
-                    if self.pulses.get(axis) is pulse:
-                        del self.pulses[axis]
-                continue
-            chunk = min(pulse.remaining_ms, PULSE_CHUNK_MS)
-            generation = self.generation
-            try:
-                end = self.mount.pulse_guide(pulse.direction, chunk, guard=self._guard(generation))
-            except MotionCancelled:
-                continue
-            except (LinkError, ProtocolError, MountReplyError) as exc:
-                # What the link outage took is lost; the rest still ends by the pulse's deadline.
-                left = min(pulse.remaining_ms, int((pulse.deadline - now) * 1000.0))
-                log.warning("pulse continuation failed (%s); retrying with %d ms left", exc, left)
-                replacement = Pulse(pulse.direction, left, pulse.deadline, now + 0.05)
-            else:
-                replacement = Pulse(pulse.direction, pulse.remaining_ms - chunk, pulse.deadline, end)
-            with self._lock:
-                if self.pulses.get(axis) is pulse:
-                    self.pulses[axis] = replacement
 
     # -- motion phases -------------------------------------------------------------------------
 
