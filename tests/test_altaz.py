@@ -184,6 +184,41 @@ def test_rate_offsets_move_the_pointing_at_the_rate_with_and_without_a_pulse(rig
     assert not [r for r in rig.sent_since(start) if r.startswith(":Mg")]
 
 
+@pytest.mark.parametrize("line", ["paced at 9600 baud", "unpaced (USB CDC ignoring the baud)"])
+def test_slow_offsets_on_both_axes_keep_their_rates_on_either_kind_of_line(server_factory: ServerFactory,
+                                                                           line: str) -> None:
+    """A slow comet (0.5″/s in RA and Dec) is paid in short timed moves on both axes at once. On a paced
+    line one axis's stop can sit behind the other axis's start commands on the wire (Dec once ran at 2x
+    its rate that way); on a line that ignores the baud it cannot, and the server, which assumes
+    9600 baud, must not pay short for a delay that did not happen. Either way the truth moves at the rate."""
+    paced = line.startswith("paced")
+    server = server_factory(make_settings(emulator=EmulatorSettings(speed=2.0, baud=9600 if paced else 0,
+                                                                    mode="altaz")))
+    link = server.telescopes[0].mount.link
+    link.pacing_baud = 9600  # what the server assumes of a real mount: the documented 9600 baud
+    emulator = server.emulators[0]
+    assert emulator is not None
+    rig = Rig(server, AlpycaTelescope(f"127.0.0.1:{server.port}", 0), emulator.model)
+    rig.scope.Connected = True
+    _tracking_on_a_star(rig)
+    before, t0 = rig.model.position(), rig.mount_seconds()
+    rig.scope.RightAscensionRate = 0.5 / 15.0 / 1.00273790935  # 0.5″/s of RA
+    rig.scope.DeclinationRate = 0.5
+    _wait_mount_seconds(rig, 40.0)
+    rig.scope.RightAscensionRate = 0.0
+    rig.scope.DeclinationRate = 0.0
+    elapsed = rig.mount_seconds() - t0
+    _wait_mount_seconds(rig, 1.0)
+    after = rig.model.position()
+    d_ra = ((after[0] - before[0] + 12.0) % 24.0 - 12.0) * 15.0 * 3600.0
+    d_dec = (after[1] - before[1]) * 3600.0
+    # 20″ each; what accrued since the last pulse (up to 25 ms real = 0.38″ at 2x, and half a cycle) is
+    # dropped when the rate goes to 0.
+    assert d_ra == pytest.approx(0.5 * elapsed, abs=1.5)
+    assert d_dec == pytest.approx(0.5 * elapsed, abs=1.5)
+    rig.scope.Connected = False
+
+
 @pytest.mark.parametrize("stop", ["AbortSlew", "last client disconnects"])
 def test_a_stop_ends_a_pulse_and_the_mount_holds_still(rig: Rig, stop: str) -> None:
     """Safety: AbortSlew, and the last client going away, end a running alt-az pulse (a move that nobody
