@@ -168,24 +168,15 @@ class Link:
         trace_size: int = 2000,
         opener: Opener = serial.serial_for_url,
         reconnect_delays: tuple[float, ...] = (0.2, 0.5, 1.0, 1.0, 2.0),
-        pacing_baud: int | None = None,
     ) -> None:
         self.url = url
         self.baud = baud
-        #: The byte rate the line really carries toward the mount, for when a command arrives: the baud
-        #: by default (9600, the documented rate), 0 for a line with no pacing (an in-process emulator
-        #: started unpaced). On USB CDC the setting may have no effect (field notes §1 [?]); timed moves
-        #: are built to come out right either way (Mount.drift).
-        self.pacing_baud = baud if pacing_baud is None else pacing_baud
         self.timeout = timeout
         self._opener = opener
         self._reconnect_delays = reconnect_delays
         self._port: Any = None
         self._arbiter = _Arbiter()
         self._write_lock = threading.Lock()  # held only around one port.write (urgent lane + exchanges)
-        #: When (time.monotonic) the bytes written so far will all have reached the mount at ``baud``:
-        #: a command written behind others arrives that much later (see :meth:`send`).
-        self._tx_free = 0.0
         self._state_lock = threading.Lock()
         self._status = LinkStatus(LinkState.CLOSED, url, time.time())
         self._suspect = False
@@ -265,38 +256,6 @@ class Link:
         ``time.monotonic()`` instant) holds the line and writes no earlier than that, so a timed
         command (the :Td# that freezes an alt/az landing) is not delayed by a poll starting first.
         """
-        return self._exchange_timed(req, priority, guard, not_before)[0]
-
-    def send(self, req: protocol.Request, *, guard: Callable[[], bool] | None = None) -> float:
-        """Send a reply-less command through the line (as :meth:`exchange`) and return when its last
-        byte reaches the mount (``time.monotonic()``): the moment the mount acts on it.
-
-        The host-to-mount direction carries one byte per 10/baud s, so a command written right
-        behind others (a ``:Rv…#`` before a move, another axis's stop) arrives that much later than
-        it was written; what starts or ends a host-timed move is its arrival, not its write.
-        """
-        if req.kind is not protocol.ReplyKind.NONE:
-            raise ValueError(f"{req.text} has a reply; send() is for reply-less commands")
-        return self._exchange_timed(req, Priority.COMMAND, guard, None)[1]
-
-    def arrival_delay(self, nbytes: int) -> float:
-        """Seconds until ``nbytes`` written now would have reached the mount (the queue ahead included)."""
-        if not self.pacing_baud:
-            return 0.0
-        now = time.monotonic()
-        return max(now, self._tx_free) - now + nbytes * 10.0 / self.pacing_baud
-
-    def wait_line_idle(self) -> None:
-        """Sleep until everything written so far has reached the mount (by :attr:`pacing_baud`), so the
-        next command goes out on an idle line: arriving its own few bytes after its write, paced or
-        not. Bounded by what is queued: a handful of milliseconds."""
-        delay = self._tx_free - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)
-
-    def _exchange_timed(self, req: protocol.Request, priority: Priority, guard: Callable[[], bool] | None,
-                        not_before: float | None) -> tuple[str, float]:
-        """The exchange: its reply text and when its request reached the mount."""
         if self._status.state is not LinkState.CONNECTED:
             raise LinkError(f"mount link is {self._status.state.value}: {self._status.last_error or 'not open'}")
         self._arbiter.acquire(priority, self.timeout * 4)
@@ -320,9 +279,8 @@ class Link:
         finally:
             self._arbiter.release()
 
-    def send_urgent(self, req: protocol.Request) -> float:
-        """Write a reply-less command now, even while another exchange waits for its reply; return
-        when it reaches the mount (as :meth:`send`).
+    def send_urgent(self, req: protocol.Request) -> None:
+        """Write a reply-less command now, even while another exchange waits for its reply.
 
         Only for commands the mount never answers (stops): nothing is read, so no reply can be
         shifted. Takes only the write lock, never the line, so a stop waits for at most one
@@ -336,30 +294,20 @@ class Link:
             if port is None or self._status.state is not LinkState.CONNECTED:
                 raise LinkError(f"mount link is {self._status.state.value}: {self._status.last_error or 'not open'}")
             try:
-                arrival = self._write(port, req.wire)
+                port.write(req.wire)
             except (serial.SerialException, OSError) as exc:
                 raise LinkError(f"mount link lost while stopping: {exc}") from exc
             self.counters.bytes_out += len(req.wire)
             self.counters.exchanges += 1
         self._record(req.text, "", started, "urgent")
-        return arrival
 
-    def _write(self, port: Any, wire: bytes) -> float:
-        """Write (under the write lock) and return when the last byte reaches the mount."""
-        now = time.monotonic()
-        port.write(wire)
-        if not self.pacing_baud:
-            return now
-        self._tx_free = max(now, self._tx_free) + len(wire) * 10.0 / self.pacing_baud
-        return self._tx_free
-
-    def _exchange_locked(self, req: protocol.Request, guard: Callable[[], bool] | None = None) -> tuple[str, float]:
+    def _exchange_locked(self, req: protocol.Request, guard: Callable[[], bool] | None = None) -> str:
         started = time.monotonic()
         wire = req.wire
         with self._write_lock:
             if guard is not None and not guard():
                 raise MotionCancelled(f"{req.text} not sent: a stop came first")
-            arrival = self._write(self._port, wire)
+            self._port.write(wire)
         self.counters.bytes_out += len(wire)
         self.counters.exchanges += 1
         try:
@@ -380,7 +328,7 @@ class Link:
         if not _plausible(req, reply):
             self._suspect = True
             raise ProtocolError(f"implausible reply {reply!r} to {req.text}")
-        return reply, arrival
+        return reply
 
     def _trailing_bytes(self, quiet_s: float) -> bool:
         """Whether bytes arrive right behind a reply (within ``quiet_s`` and a few byte times)."""
@@ -450,8 +398,7 @@ class Link:
         started = time.monotonic()
         for _attempt in range(6):
             drained = self._drain(self.QUIET_S)
-            with self._write_lock:
-                self._write(self._port, self.PROBE.wire)
+            self._port.write(self.PROBE.wire)
             self.counters.bytes_out += len(self.PROBE.wire)
             try:
                 # The probe's reply is ~7 ms away even at 9600 baud, so it gets a short timeout: a

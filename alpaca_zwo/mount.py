@@ -336,25 +336,18 @@ class Mount:
         """The sky rates (deg/s) of the offset moves now running on axis 0 and 1."""
         return self._drift[0], self._drift[1]
 
-    def drift(self, axis: int, rate_deg_s: float, guard: Guard | None = None) -> float:
+    def drift(self, axis: int, rate_deg_s: float, guard: Guard | None = None) -> None:
         """Run (or stop, with 0) a slow move that carries a tracking rate offset too large for guide
         pulses, or (alt-az mode) a guide pulse. Unlike move_axis it is part of tracking, not a slew:
         moving_axes is left alone and the position estimator carries the motion. The rate is rounded
-        to the mount's 0.01x steps; one that rounds to 0 stops the move.
-
-        Returns when (mount time) the command that starts or stops the move reaches the mount (by the
-        link's pacing): a host-timed pulse is measured from arrival to arrival. The move command is
-        written on an idle line (after its ``:Rv…#``, 9.4 ms at 9600 baud, and anything else queued),
-        as the stop that ends a pulse normally is: then both carry the same transit, and the pulse
-        comes out right whether the line is paced at 9600 baud or not (USB CDC may ignore it)."""
+        to the mount's 0.01x steps; one that rounds to 0 stops the move."""
         multiple = round(min(abs(rate_deg_s) / SIDEREAL_DEG_S, wire_values.SLEW_SPEEDS[-1]), 2)
-        arrival = self.monotonic()
         if multiple == 0.0:
             rate_deg_s = 0.0
             if self._drift[axis] != 0.0:
                 direction = self._move_directions.pop(axis, None)
                 for d in [direction] if direction else self._axis_directions(axis):
-                    arrival = self._mount_time(self.link.send_urgent(protocol.stop_direction(d)))
+                    self.link.send_urgent(protocol.stop_direction(d))
         else:
             direction = self._axis_directions(axis)[0 if rate_deg_s > 0 else 1]
             previous = self._move_directions.get(axis)
@@ -362,24 +355,27 @@ class Mount:
                 self.link.send_urgent(protocol.stop_direction(previous))  # :Me# does not end a running :Mw#
                 del self._move_directions[axis]
                 self._drift[axis] = 0.0
-            # :Rv is latched by the move that follows it (field notes §2.3): always sent, since a
-            # mount that rebooted unseen would otherwise move at its power-up speed, the fastest.
-            self._exec(protocol.set_variable_speed(multiple))
-            self.link.wait_line_idle()
-            arrival = self._send(protocol.move(direction), guard=guard)
+            self._set_variable_speed(multiple)  # then the move: a timed pulse's start is its own
+            self._exec(protocol.move(direction), guard=guard)
             self._move_directions[axis] = direction
             rate_deg_s = (multiple if rate_deg_s > 0 else -multiple) * SIDEREAL_DEG_S
         self._drift[axis] = rate_deg_s
         self._rate_changed()
-        return arrival
 
-    def stop_arrival_delay(self) -> float:
-        """Mount seconds a stop written now takes to reach the mount (the line's queue included)."""
-        return self.link.arrival_delay(len(protocol.stop_direction(Direction.EAST).wire)) * self._clock_rate
+    def _set_variable_speed(self, multiple: float) -> None:
+        """``:Rv``, then wait until its bytes are on their way out of the line before the move follows.
 
-    def _mount_time(self, monotonic_instant: float) -> float:
-        """A ``time.monotonic()`` instant (the link's clock) on the mount's clock."""
-        return self.monotonic() + (monotonic_instant - time.monotonic()) * self._clock_rate
+        A ``:Rv…#`` written just before ``:M?#`` delays the move's start by its 9 bytes on the wire
+        (9.4 ms at 9600 baud), while the stop that ends a timed pulse has no such prefix: every alt-az
+        pulse came out 9.4 ms short (a 0.05″/s offset paid in 7 ms pulses ran 25% slow on the
+        emulator). Waiting out the wire time at the link's baud makes the move's own command the only
+        thing between the recorded start and the motion, as the stop is for the end. Over WiFi the
+        wait only costs those milliseconds. (Skipping a repeated ``:Rv`` would save them, but a mount
+        that rebooted unseen would then move at its power-up speed, the fastest.)"""
+        request = protocol.set_variable_speed(multiple)
+        self._exec(request)
+        if self.link.baud:
+            time.sleep(len(request.wire) * 10.0 / self.link.baud)
 
     @staticmethod
     def _axis_directions(axis: int) -> tuple[Direction, Direction]:
@@ -554,15 +550,6 @@ class Mount:
     def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND, guard: Guard | None = None) -> Any:
         try:
             return self.link.execute(req, priority, guard=guard)
-        finally:
-            if req.command.code in _STATUS_CHANGING:
-                with self._publish_lock:
-                    self._epoch += 1
-
-    def _send(self, req: protocol.Request, guard: Guard | None = None) -> float:
-        """A reply-less command as :meth:`_exec` sends it; returns its arrival at the mount (mount time)."""
-        try:
-            return self._mount_time(self.link.send(req, guard=guard))
         finally:
             if req.command.code in _STATUS_CHANGING:
                 with self._publish_lock:

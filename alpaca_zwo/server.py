@@ -129,8 +129,7 @@ class AlpacaZwoServer:
                 emulator = EmbeddedEmulator(settings, speed, baud, self.overrides.emulator_mode)
                 url, clock, monotonic, clock_rate = emulator.url, emulator.now, emulator.clock.seconds, speed
             self.emulators.append(emulator)
-            link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size,
-                        pacing_baud=None if emulator is None else baud)  # the embedded line's real pacing
+            link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)
             mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate)
             self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry, clock=clock))
 

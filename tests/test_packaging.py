@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import sysconfig
 import venv
 import zipfile
 from pathlib import Path
@@ -23,10 +24,17 @@ def test_wheel_installs_into_a_fresh_venv_and_serves_the_setup_page(tmp_path: Pa
     for asset in ("index.html", "app.js", "style.css"):
         assert f"alpaca_zwo/static/{asset}" in names
 
-    # A fresh environment; dependencies come from this interpreter's site-packages (no network).
+    # A fresh environment; dependencies come from this interpreter's site-packages (no network), put
+    # behind the venv's own by a .pth line. (system_site_packages would give the *base* Python's, which
+    # on a fresh machine has none of them.) A plain path line does not run that directory's own .pth
+    # files, so this checkout's editable install is not seen: alpaca_zwo can only come from the wheel.
     env_dir = tmp_path / "venv"
-    venv.EnvBuilder(with_pip=True, system_site_packages=True).create(env_dir)
+    venv.EnvBuilder(with_pip=True).create(env_dir)
     python = env_dir / "bin" / "python"
+    own_site = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                              capture_output=True, text=True, check=True, timeout=60).stdout.strip()
+    ours = {sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]}
+    (Path(own_site) / "test-dependencies.pth").write_text("".join(f"{path}\n" for path in sorted(ours)))
     subprocess.run([str(python), "-m", "pip", "install", "--no-deps", "-q", str(wheel)], check=True, timeout=300)
     for script in ("alpaca-zwo", "alpaca-zwo-emulator"):
         version = subprocess.run([str(env_dir / "bin" / script), "--help"], capture_output=True, text=True,

@@ -9,14 +9,10 @@ supervisor stops it (``:Q?#`` on the urgent lane) when the pulse's time is up. I
 by the host, to a few milliseconds (0.02″ at the default guide speed), and needs no chunks.
 
 One timed move per axis, like one ``:Mg`` per axis on the mount: a new pulse on an axis replaces the
-running one. Both ends are timed by when a command *reaches* the mount, not when it is written
-(:meth:`Link.send`): at 9600 baud the move's ``:M?#`` arrives behind its ``:Rv…#`` (9.4 ms), and a
-stop written while another axis's move command is still on the wire arrives behind it. So the
-start is the move command's arrival, and the stop is written early by the stop's own transit and
-the queue ahead of it. What a move still runs longer or shorter than planned (the supervisor's
-wake-up; a command queued after the stop was timed) is booked against a rate offset's balance, so
-a slow offset (ConformU tests 0.05″/s, paid in pulses of a few ms) and two offset axes pulsing at
-once keep their rates.
+running one. A timed move runs a little longer than planned (the supervisor's wake-up and the stop's
+write, fractions of a millisecond real, times the emulator's speed); for a rate-offset pulse that
+overrun is booked against the offset's balance, so a slow offset (ConformU tests 0.05″/s, paid in
+pulses of a few ms) keeps its rate instead of running some percent fast.
 
 Every stop (AbortSlew, a new slew, the last client leaving, shutdown, a safety stop) ends timed moves
 with everything else; a timed move that cannot be stopped triggers a safety stop.
@@ -76,7 +72,7 @@ class GuidingMixin:
     generation: int
     _start_lock: threading.Lock
     _lock: threading.Lock
-    _timed_locks: tuple[threading.Lock, threading.Lock]  # per axis: one timed-move start or end (across its I/O)
+    _timed_lock: threading.Lock  # one timed-move start or end at a time (held across its I/O)
 
     if TYPE_CHECKING:  # provided by MotionSupervisor
         def _guard(self, generation: int) -> Callable[[], bool]: ...
@@ -95,8 +91,9 @@ class GuidingMixin:
             return self.mount.pulse_guide(direction, milliseconds, guard=guard)
         axis = pulse_axis(direction)
         sign = 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
-        with self._timed_locks[axis]:
-            start = self.mount.drift(axis, sign * state.guide_rate * SIDEREAL_DEG_S, guard=guard)  # its arrival
+        with self._timed_lock:
+            self.mount.drift(axis, sign * state.guide_rate * SIDEREAL_DEG_S, guard=guard)
+            start = self.mount.monotonic()
             speed = self.mount.drift_rates[axis] * 3600.0  # as the mount runs it (0.01x steps)
             move = TimedMove(start, start + milliseconds / 1000.0, speed, offset)
             with self._lock:
@@ -104,33 +101,29 @@ class GuidingMixin:
         self._notify()
         return move.end
 
-    def _timed_stop_due(self, move: TimedMove) -> float:
-        """When (mount time) to write a timed move's stop so that it reaches the mount at the move's
-        end: earlier by the stop's own bytes and whatever is still on the wire ahead of it."""
-        return move.end - self.mount.stop_arrival_delay()
-
     def _tick_timed_moves(self, now: float) -> None:
         """Stop the alt-az pulse moves whose time is up."""
         for axis, move in list(self.timed_moves.items()):
-            if now >= self._timed_stop_due(move):
+            if now >= move.end:
                 self._end_timed_move(axis, move)
 
     def _end_timed_move(self, axis: int, move: TimedMove | None = None) -> None:
         """Stop one timed move (``move``: only if it is still that one, not a newer pulse's). The check
-        and the stop are one step under the axis's ``_timed_locks`` entry, so a pulse started meanwhile is never cut."""
-        with self._timed_locks[axis]:
+        and the stop are one step under ``_timed_lock``, so a pulse started meanwhile is never cut."""
+        with self._timed_lock:
             with self._lock:
                 running = self.timed_moves.get(axis)
                 if running is None or (move is not None and running is not move):
                     return
                 del self.timed_moves[axis]
             try:
-                stopped = self.mount.drift(axis, 0.0)  # when the stop reached the mount
+                self.mount.drift(axis, 0.0)
             except (LinkError, ProtocolError, MountReplyError) as exc:
                 failure = exc
             else:
-                if running.offset:  # longer or shorter than booked: the balance carries the difference
-                    self.offsets.overran(axis, (stopped - running.end) * running.speed)
+                if running.offset:
+                    overrun = max(0.0, self.mount.monotonic() - running.end)
+                    self.offsets.overran(axis, overrun * running.speed)
                 return
         self.safety_stop(f"ending an alt-az guide pulse on axis {axis} failed: {failure}")
 

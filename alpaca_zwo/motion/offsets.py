@@ -19,8 +19,7 @@ Pulses give 1 ms granularity (0.0075″ at 0.5x); moves 0.15″/s. The largest o
 ``MAX_OFFSET_ARCSEC`` per second.
 
 In alt-az mode the mount's pulses move nothing, and a "pulse" is a move the supervisor times
-(``guiding.py``): the same schedule then pays the offsets in timed moves of at least
-``ALTAZ_MIN_PULSE_REAL_MS`` (a slow offset is paid less often, 0.19″ at a time at 0.5x).
+(``guiding.py``): the same schedule then pays the offsets in timed moves, granularity a few ms.
 """
 
 from __future__ import annotations
@@ -51,12 +50,6 @@ MAX_OFFSET_ARCSEC = 600.0
 MAX_DUTY = 0.9
 #: Owed displacement below this many milliseconds of pulse waits for the next cycle.
 MIN_PULSE_MS = 5
-#: In alt-az mode (pulses are host-timed moves) the shortest offset pulse, in real milliseconds: longer
-#: than starting the other axis's move takes (``:Rv…#`` + ``:M?#``, 13.5 ms at 9600 baud), so one
-#: axis's stop is never due while the other's start is on the wire. A stop queued behind those bytes
-#: arrives late on a line paced at 9600 baud and on time on one that is not (USB CDC may ignore the
-#: baud), so a pulse that ends there would be paid wrong on one kind of line or the other.
-ALTAZ_MIN_PULSE_REAL_MS = 25
 
 _DIRECTIONS = ((Direction.EAST, Direction.WEST), (Direction.NORTH, Direction.SOUTH))
 
@@ -123,14 +116,13 @@ class RateOffsets:
             axis.owed += axis.pulse_speed * (axis.pulse_end - now)
             axis.pulse_end = now
 
-    def next_pulse(self, index: int, guide_arcsec_s: float,
-                   min_ms: float = MIN_PULSE_MS) -> tuple[Direction, int] | None:
+    def next_pulse(self, index: int, guide_arcsec_s: float) -> tuple[Direction, int] | None:
         """The pulse that pays what is owed on an axis, plus what accrues until the middle of the next
         cycle (booked as paid, so the balance goes slightly negative), or None."""
         axis = self.axes[index]
         lead = CYCLE_S * 0.5 * (1.0 + abs(axis.rate) / guide_arcsec_s)
         ms = int(abs(axis.owed + axis.rate * lead) / guide_arcsec_s * 1000.0)
-        if ms < min_ms:
+        if ms < MIN_PULSE_MS:
             return None
         positive, negative = _DIRECTIONS[index]
         direction = positive if axis.owed + axis.rate * lead > 0 else negative
@@ -201,15 +193,13 @@ class OffsetsMixin:
         """One cycle: the owed displacement of each pulse-paid axis becomes a guide pulse."""
         offsets = self.offsets
         generation = self.generation
-        min_ms = (ALTAZ_MIN_PULSE_REAL_MS * self.mount.clock_rate if self.mount.state.altaz
-                  else MIN_PULSE_MS)
         for axis in (0, 1):
             if not by_pulses(offsets.axes[axis].rate, guide):
                 offsets.axes[axis].owed = 0.0  # paid by the move
                 continue
             if axis in self.pulses or offsets.axes[axis].pulse_end > now:
                 continue  # a client pulse (or the last offset pulse) is running there
-            pulse = offsets.next_pulse(axis, guide, min_ms)
+            pulse = offsets.next_pulse(axis, guide)
             if pulse is None:
                 continue
             direction, ms = pulse

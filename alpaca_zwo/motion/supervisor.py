@@ -10,9 +10,8 @@ Lock rules (the reason this module exists):
 - ``_start_lock`` serialises motion *starts* (GOTO, MoveAxis, home, park, pulses). It may be held
   across serial I/O and waits. **Stop paths never take it.**
 - ``_lock`` guards this object's fields. It is never held across I/O or a wait.
-- ``_timed_locks`` (one per axis) make starting or ending one alt-az timed pulse (``guiding.py``) a
-  single step; each is held across that one move command (so one axis's stop never waits for the
-  other axis's start), never by ``abort`` (whose ``:Q#`` ends every move anyway).
+- ``_timed_lock`` makes starting or ending one alt-az timed pulse (``guiding.py``) a single step; it
+  is held across that one move command, never by ``abort`` (whose ``:Q#`` ends every move anyway).
 - The link's write lock is held only for one ``write``. A stop bumps :attr:`generation` under
   ``_lock`` and then writes its reply-less ``:Q#`` through the link's urgent lane; every motion
   command carries a guard ("generation unchanged") that the link checks under its write lock right
@@ -101,7 +100,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         self.registry = registry
         self._start_lock = threading.Lock()
         self._lock = threading.Lock()
-        self._timed_locks = (threading.Lock(), threading.Lock())
+        self._timed_lock = threading.Lock()
         self._wake = threading.Condition()
         self.generation = 0
         self.motion: Motion | None = None
@@ -379,7 +378,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
                 or self._stop_pending)
         delays = [TICK_S if busy else IDLE_TICK_S]
         delays.extend(max(0.0, pulse.chunk_end - now) / rate for pulse in self.pulses.values())
-        delays.extend(max(0.0, self._timed_stop_due(move) - now) / rate for move in self.timed_moves.values())
+        delays.extend(max(0.0, move.end - now) / rate for move in self.timed_moves.values())
         motion = self.motion
         landing = motion.landing if motion is not None and motion.phase is Phase.LANDING else None
         if landing is not None and landing.t_star is not None:
