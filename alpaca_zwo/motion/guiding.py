@@ -61,6 +61,11 @@ def pulse_axis(direction: Direction) -> int:
     return 0 if direction in (Direction.EAST, Direction.WEST) else 1
 
 
+def direction_sign(direction: Direction) -> float:
+    """+1 for east and north (the axes' positive senses), -1 for west and south."""
+    return 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
+
+
 class GuidingMixin:
     """The guide-pulse part of MotionSupervisor."""
 
@@ -90,9 +95,8 @@ class GuidingMixin:
         if not state.altaz:
             return self.mount.pulse_guide(direction, milliseconds, guard=guard)
         axis = pulse_axis(direction)
-        sign = 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
         with self._timed_lock:
-            self.mount.drift(axis, sign * state.guide_rate * SIDEREAL_DEG_S, guard=guard)
+            self.mount.drift(axis, direction_sign(direction) * state.guide_rate * SIDEREAL_DEG_S, guard=guard)
             start = self.mount.monotonic()
             speed = self.mount.drift_rates[axis] * 3600.0  # as the mount runs it (0.01x steps)
             move = TimedMove(start, start + milliseconds / 1000.0, speed, offset)

@@ -34,6 +34,7 @@ from ..mount import PULSE_CHUNK_MS, Mount
 from ..mount_state import MountState
 from ..sky import SIDEREAL_DEG_S, SOLAR_SECONDS_PER_SIDEREAL_SECOND
 from ..wire_values import Direction
+from .guiding import direction_sign
 
 if TYPE_CHECKING:
     from .guiding import TimedMove
@@ -138,8 +139,7 @@ class RateOffsets:
     def sent(self, index: int, end: float, ms: int, direction: Direction, guide_arcsec_s: float) -> None:
         axis = self.axes[index]
         axis.pulse_end = end
-        sign = 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
-        axis.pulse_speed = sign * guide_arcsec_s if ms else 0.0
+        axis.pulse_speed = direction_sign(direction) * guide_arcsec_s if ms else 0.0
 
 
 class OffsetsMixin:
@@ -208,8 +208,7 @@ class OffsetsMixin:
                                         offset=True)
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.debug("rate offset pulse not sent: %s", exc)
-                offsets.axes[axis].owed += ms / 1000.0 * guide * (1 if direction in (Direction.EAST, Direction.NORTH)
-                                                                  else -1)
+                offsets.axes[axis].owed += ms / 1000.0 * guide * direction_sign(direction)
                 continue
             offsets.sent(axis, end, ms, direction, guide)
 
