@@ -177,6 +177,9 @@ class Link:
         self._port: Any = None
         self._arbiter = _Arbiter()
         self._write_lock = threading.Lock()  # held only around one port.write (urgent lane + exchanges)
+        #: When (time.monotonic) everything written so far has left the host at ``baud``: the line is
+        #: idle after that (see :meth:`_write_on_idle_line`).
+        self._tx_free = 0.0
         self._state_lock = threading.Lock()
         self._status = LinkStatus(LinkState.CLOSED, url, time.time())
         self._suspect = False
@@ -256,6 +259,24 @@ class Link:
         ``time.monotonic()`` instant) holds the line and writes no earlier than that, so a timed
         command (the :Td# that freezes an alt/az landing) is not delayed by a poll starting first.
         """
+        return self._exchange(req, priority, guard, not_before, idle=False)[0]
+
+    def send_on_idle_line(self, req: protocol.Request, *, guard: Callable[[], bool] | None = None) -> float:
+        """Send a reply-less command (as :meth:`exchange`) once nothing written before it is still
+        on its way out, and return when it was written (``time.monotonic()``).
+
+        For what starts a host-timed move: the move then begins its own few bytes after the
+        returned instant, on a line paced at ``baud`` or on one that ignores the baud (USB CDC may),
+        exactly as the stop that ends it (:meth:`send_urgent` with ``idle``) ends it. Waits at most
+        the wire time of what is queued (9.4 ms for a ``:Rv…#`` at 9600 baud).
+        """
+        if req.kind is not protocol.ReplyKind.NONE:
+            raise ValueError(f"{req.text} has a reply; send_on_idle_line() is for reply-less commands")
+        return self._exchange(req, Priority.COMMAND, guard, None, idle=True)[1]
+
+    def _exchange(self, req: protocol.Request, priority: Priority, guard: Callable[[], bool] | None,
+                  not_before: float | None, idle: bool) -> tuple[str, float]:
+        """The exchange: its reply text and when its request was written."""
         if self._status.state is not LinkState.CONNECTED:
             raise LinkError(f"mount link is {self._status.state.value}: {self._status.last_error or 'not open'}")
         self._arbiter.acquire(priority, self.timeout * 4)
@@ -272,42 +293,66 @@ class Link:
                 delay = not_before - time.monotonic()
                 if delay > 0:
                     time.sleep(delay)
-            return self._exchange_locked(req, guard)
+            return self._exchange_locked(req, guard, idle)
         except (serial.SerialException, OSError) as exc:
             self._lost(exc)
             raise LinkError(f"mount link lost: {exc}") from exc
         finally:
             self._arbiter.release()
 
-    def send_urgent(self, req: protocol.Request) -> None:
-        """Write a reply-less command now, even while another exchange waits for its reply.
+    def send_urgent(self, req: protocol.Request, *, idle: bool = False) -> float:
+        """Write a reply-less command now, even while another exchange waits for its reply; return
+        when it was written (``time.monotonic()``).
 
         Only for commands the mount never answers (stops): nothing is read, so no reply can be
         shifted. Takes only the write lock, never the line, so a stop waits for at most one
-        ``write`` of a few bytes rather than a whole exchange.
+        ``write`` of a few bytes rather than a whole exchange. ``idle``: first let what is already
+        on its way out leave (at most one request's wire time), so the returned instant is when the
+        mount gets the stop less its own bytes, as for the move it ends (:meth:`send_on_idle_line`).
         """
         if req.kind is not protocol.ReplyKind.NONE:
             raise ValueError(f"{req.text} has a reply; only reply-less commands may use the urgent lane")
         started = time.monotonic()
-        with self._write_lock:
-            port = self._port
-            if port is None or self._status.state is not LinkState.CONNECTED:
-                raise LinkError(f"mount link is {self._status.state.value}: {self._status.last_error or 'not open'}")
-            try:
-                port.write(req.wire)
-            except (serial.SerialException, OSError) as exc:
-                raise LinkError(f"mount link lost while stopping: {exc}") from exc
-            self.counters.bytes_out += len(req.wire)
-            self.counters.exchanges += 1
+        port = self._port
+        if port is None or self._status.state is not LinkState.CONNECTED:
+            raise LinkError(f"mount link is {self._status.state.value}: {self._status.last_error or 'not open'}")
+        try:
+            written = self._write(port, req.wire, None, idle)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f"mount link lost while stopping: {exc}") from exc
+        self.counters.bytes_out += len(req.wire)
+        self.counters.exchanges += 1
         self._record(req.text, "", started, "urgent")
+        return written
 
-    def _exchange_locked(self, req: protocol.Request, guard: Callable[[], bool] | None = None) -> str:
+    def _write(self, port: Any, wire: bytes, guard: Callable[[], bool] | None, idle: bool) -> float:
+        """Write under the write lock (checking ``guard`` right before); return when it was written.
+
+        ``idle``: not before everything written earlier has left the host at ``baud`` (the wait is
+        outside the lock, so a stop is never held up by it; a write that slipped in meanwhile is
+        waited out too, a bounded number of times)."""
+        for attempt in range(8):
+            if idle:
+                delay = self._tx_free - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            with self._write_lock:
+                now = time.monotonic()
+                if idle and self._tx_free > now and attempt < 7:
+                    continue  # another write got in first
+                if guard is not None and not guard():
+                    raise MotionCancelled(f"{wire.decode('latin-1')} not sent: a stop came first")
+                port.write(wire)
+                if self.baud:
+                    self._tx_free = max(now, self._tx_free) + len(wire) * 10.0 / self.baud
+                return now
+        raise AssertionError("unreachable")
+
+    def _exchange_locked(self, req: protocol.Request, guard: Callable[[], bool] | None = None,
+                         idle: bool = False) -> tuple[str, float]:
         started = time.monotonic()
         wire = req.wire
-        with self._write_lock:
-            if guard is not None and not guard():
-                raise MotionCancelled(f"{req.text} not sent: a stop came first")
-            self._port.write(wire)
+        written = self._write(self._port, wire, guard, idle)
         self.counters.bytes_out += len(wire)
         self.counters.exchanges += 1
         try:
@@ -328,7 +373,7 @@ class Link:
         if not _plausible(req, reply):
             self._suspect = True
             raise ProtocolError(f"implausible reply {reply!r} to {req.text}")
-        return reply
+        return reply, written
 
     def _trailing_bytes(self, quiet_s: float) -> bool:
         """Whether bytes arrive right behind a reply (within ``quiet_s`` and a few byte times)."""
@@ -398,7 +443,7 @@ class Link:
         started = time.monotonic()
         for _attempt in range(6):
             drained = self._drain(self.QUIET_S)
-            self._port.write(self.PROBE.wire)
+            self._write(self._port, self.PROBE.wire, None, False)
             self.counters.bytes_out += len(self.PROBE.wire)
             try:
                 # The probe's reply is ~7 ms away even at 9600 baud, so it gets a short timeout: a

@@ -336,18 +336,26 @@ class Mount:
         """The sky rates (deg/s) of the offset moves now running on axis 0 and 1."""
         return self._drift[0], self._drift[1]
 
-    def drift(self, axis: int, rate_deg_s: float, guard: Guard | None = None) -> None:
+    def drift(self, axis: int, rate_deg_s: float, guard: Guard | None = None) -> float:
         """Run (or stop, with 0) a slow move that carries a tracking rate offset too large for guide
         pulses, or (alt-az mode) a guide pulse. Unlike move_axis it is part of tracking, not a slew:
         moving_axes is left alone and the position estimator carries the motion. The rate is rounded
-        to the mount's 0.01x steps; one that rounds to 0 stops the move."""
+        to the mount's 0.01x steps; one that rounds to 0 stops the move.
+
+        Returns when (mount time) the command that starts or stops the move was written. Both go
+        out on an idle line (the move after its ``:Rv…#``, 9.4 ms at 9600 baud; the stop after
+        whatever else is leaving, at most one request's bytes), so each reaches the mount its own
+        four bytes later whether the line is paced at the baud or not (USB CDC may ignore it): a
+        host-timed pulse measured from write to write is the pulse the mount makes. A wait for the
+        line is in the returned instant, not hidden after it, so it can be booked."""
         multiple = round(min(abs(rate_deg_s) / SIDEREAL_DEG_S, wire_values.SLEW_SPEEDS[-1]), 2)
+        written = self.monotonic()
         if multiple == 0.0:
             rate_deg_s = 0.0
             if self._drift[axis] != 0.0:
                 direction = self._move_directions.pop(axis, None)
                 for d in [direction] if direction else self._axis_directions(axis):
-                    self.link.send_urgent(protocol.stop_direction(d))
+                    written = self._mount_time(self.link.send_urgent(protocol.stop_direction(d), idle=True))
         else:
             direction = self._axis_directions(axis)[0 if rate_deg_s > 0 else 1]
             previous = self._move_directions.get(axis)
@@ -355,27 +363,19 @@ class Mount:
                 self.link.send_urgent(protocol.stop_direction(previous))  # :Me# does not end a running :Mw#
                 del self._move_directions[axis]
                 self._drift[axis] = 0.0
-            self._set_variable_speed(multiple)  # then the move: a timed pulse's start is its own
-            self._exec(protocol.move(direction), guard=guard)
+            # :Rv is latched by the move that follows it (field notes §2.3): always sent, since a
+            # mount that rebooted unseen would otherwise move at its power-up speed, the fastest.
+            self._exec(protocol.set_variable_speed(multiple))
+            written = self._send_on_idle_line(protocol.move(direction), guard)
             self._move_directions[axis] = direction
             rate_deg_s = (multiple if rate_deg_s > 0 else -multiple) * SIDEREAL_DEG_S
         self._drift[axis] = rate_deg_s
         self._rate_changed()
+        return written
 
-    def _set_variable_speed(self, multiple: float) -> None:
-        """``:Rv``, then wait until its bytes are on their way out of the line before the move follows.
-
-        A ``:Rv…#`` written just before ``:M?#`` delays the move's start by its 9 bytes on the wire
-        (9.4 ms at 9600 baud), while the stop that ends a timed pulse has no such prefix: every alt-az
-        pulse came out 9.4 ms short (a 0.05″/s offset paid in 7 ms pulses ran 25% slow on the
-        emulator). Waiting out the wire time at the link's baud makes the move's own command the only
-        thing between the recorded start and the motion, as the stop is for the end. Over WiFi the
-        wait only costs those milliseconds. (Skipping a repeated ``:Rv`` would save them, but a mount
-        that rebooted unseen would then move at its power-up speed, the fastest.)"""
-        request = protocol.set_variable_speed(multiple)
-        self._exec(request)
-        if self.link.baud:
-            time.sleep(len(request.wire) * 10.0 / self.link.baud)
+    def _mount_time(self, monotonic_instant: float) -> float:
+        """A ``time.monotonic()`` instant (the link's clock) on the mount's clock."""
+        return self.monotonic() + (monotonic_instant - time.monotonic()) * self._clock_rate
 
     @staticmethod
     def _axis_directions(axis: int) -> tuple[Direction, Direction]:
@@ -550,6 +550,16 @@ class Mount:
     def _exec(self, req: protocol.Request, priority: Priority = Priority.COMMAND, guard: Guard | None = None) -> Any:
         try:
             return self.link.execute(req, priority, guard=guard)
+        finally:
+            if req.command.code in _STATUS_CHANGING:
+                with self._publish_lock:
+                    self._epoch += 1
+
+    def _send_on_idle_line(self, req: protocol.Request, guard: Guard | None = None) -> float:
+        """A reply-less command written on an idle line (:meth:`Link.send_on_idle_line`); returns when
+        it was written, in mount time."""
+        try:
+            return self._mount_time(self.link.send_on_idle_line(req, guard=guard))
         finally:
             if req.command.code in _STATUS_CHANGING:
                 with self._publish_lock:

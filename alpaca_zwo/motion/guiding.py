@@ -9,10 +9,13 @@ supervisor stops it (``:Q?#`` on the urgent lane) when the pulse's time is up. I
 by the host, to a few milliseconds (0.02″ at the default guide speed), and needs no chunks.
 
 One timed move per axis, like one ``:Mg`` per axis on the mount: a new pulse on an axis replaces the
-running one. A timed move runs a little longer than planned (the supervisor's wake-up and the stop's
-write, fractions of a millisecond real, times the emulator's speed); for a rate-offset pulse that
-overrun is booked against the offset's balance, so a slow offset (ConformU tests 0.05″/s, paid in
-pulses of a few ms) keeps its rate instead of running some percent fast.
+running one. Its start and its stop are both written on an idle line (:meth:`Mount.drift`), so each
+reaches the mount its own four bytes after the instant recorded, on a line paced at 9600 baud or on
+one that ignores the baud: the pulse the mount makes is the one measured. A timed move still runs a
+little longer than planned (the supervisor's wake-up; a stop waiting for the other axis's
+``:Rv…#:M?#`` to leave the line, up to 13.5 ms at 9600 baud); for a rate-offset pulse that difference
+is booked against the offset's balance, so a slow offset (ConformU tests 0.05″/s, paid in pulses of a
+few ms) and offsets on both axes at once keep their rates.
 
 Every stop (AbortSlew, a new slew, the last client leaving, shutdown, a safety stop) ends timed moves
 with everything else; a timed move that cannot be stopped triggers a safety stop.
@@ -50,7 +53,7 @@ log = logging.getLogger(__name__)
 class TimedMove:
     """An alt-az pulse under way on one axis (mount times)."""
 
-    start: float  # the move command was written
+    start: float  # the move command was written (on an idle line)
     end: float  # due to stop
     speed: float  # signed arcsec/s: + is east on axis 0, north on axis 1
     offset: bool  # paid for a rate offset: an overrun is booked against its balance
@@ -87,17 +90,19 @@ class GuidingMixin:
     # -- one pulse, as the mount can make it -----------------------------------------------------
 
     def _guide_pulse(self, direction: Direction, milliseconds: int, guard: Callable[[], bool] | None = None,
-                     offset: bool = False) -> float:
+                     offset: bool = False, speed_arcsec: float | None = None) -> float:
         """Send one pulse (≤ 3000 ms in equatorial mode, any length in alt-az); return its end in
         mount time. Raises what the link raises; MotionCancelled if ``guard`` withdrew it.
-        ``offset``: the pulse pays a rate offset (its overrun is booked there)."""
+        ``offset``: the pulse pays a rate offset (its overrun is booked there). ``speed_arcsec``: in
+        alt-az, the timed move's speed if not the guide speed (offsets.pulse_speed_arcsec)."""
         state = self.mount.state
         if not state.altaz:
             return self.mount.pulse_guide(direction, milliseconds, guard=guard)
         axis = pulse_axis(direction)
+        speed_deg_s = state.guide_rate * SIDEREAL_DEG_S if speed_arcsec is None else speed_arcsec / 3600.0
         with self._timed_lock:
-            self.mount.drift(axis, direction_sign(direction) * state.guide_rate * SIDEREAL_DEG_S, guard=guard)
-            start = self.mount.monotonic()
+            start = self.mount.drift(axis, direction_sign(direction) * speed_deg_s,
+                                     guard=guard)  # when the move command was written
             speed = self.mount.drift_rates[axis] * 3600.0  # as the mount runs it (0.01x steps)
             move = TimedMove(start, start + milliseconds / 1000.0, speed, offset)
             with self._lock:
@@ -121,13 +126,12 @@ class GuidingMixin:
                     return
                 del self.timed_moves[axis]
             try:
-                self.mount.drift(axis, 0.0)
+                stopped = self.mount.drift(axis, 0.0)  # when the stop was written
             except (LinkError, ProtocolError, MountReplyError) as exc:
                 failure = exc
             else:
-                if running.offset:
-                    overrun = max(0.0, self.mount.monotonic() - running.end)
-                    self.offsets.overran(axis, overrun * running.speed)
+                if running.offset:  # longer (or shorter) than booked: the balance carries the difference
+                    self.offsets.overran(axis, (stopped - running.end) * running.speed)
                 return
         self.safety_stop(f"ending an alt-az guide pulse on axis {axis} failed: {failure}")
 

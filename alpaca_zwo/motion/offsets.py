@@ -19,12 +19,17 @@ Pulses give 1 ms granularity (0.0075″ at 0.5x); moves 0.15″/s. The largest o
 ``MAX_OFFSET_ARCSEC`` per second.
 
 In alt-az mode the mount's pulses move nothing, and a "pulse" is a move the supervisor times
-(``guiding.py``): the same schedule then pays the offsets in timed moves, granularity a few ms.
+(``guiding.py``) at a speed of the server's choosing: the same schedule then pays each offset in
+timed moves at the slowest 0.01x step that pays it within ``ALTAZ_DUTY`` of the time
+(:func:`pulse_speed_arcsec`). A slow offset is so paid in long, slow moves (0.05″/s: 0.01x =
+0.15″/s, about 170 ms per cycle) that a few milliseconds of host timing hardly touch, not in
+guide-speed moves of a few milliseconds that they would (ConformU's 0.05″/s test saw ±10%).
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -52,6 +57,11 @@ MAX_DUTY = 0.9
 #: Owed displacement below this many milliseconds of pulse waits for the next cycle.
 MIN_PULSE_MS = 5
 
+#: Alt-az offset pulses (timed moves) run at a speed that pays the offset in about this share of the time.
+ALTAZ_DUTY = 0.5
+#: The mount's variable-rate step (0.01x sidereal) in arcsec/s.
+_RATE_STEP_ARCSEC = 0.01 * SIDEREAL_DEG_S * 3600.0
+
 _DIRECTIONS = ((Direction.EAST, Direction.WEST), (Direction.NORTH, Direction.SOUTH))
 
 
@@ -63,6 +73,17 @@ def by_pulses(rate_arcsec: float, guide_arcsec_s: float) -> bool:
 def guide_speed_arcsec(guide_rate: float) -> float:
     """Arcseconds per second an axis moves at the mount's guide rate (a fraction of sidereal)."""
     return guide_rate * SIDEREAL_DEG_S * 3600.0
+
+
+def pulse_speed_arcsec(rate_arcsec: float, guide_arcsec_s: float, altaz: bool) -> float:
+    """The speed (arcsec/s) of the pulses that pay an offset of ``rate_arcsec``: the guide speed for
+    the mount's own pulses (equatorial); in alt-az, where a pulse is a move the host times, the
+    slowest 0.01x step that pays the offset within ``ALTAZ_DUTY`` of the time (never above the guide
+    speed), so that a pulse is long and its few milliseconds of timing error a small part of it."""
+    if not altaz:
+        return guide_arcsec_s
+    steps = math.ceil(abs(rate_arcsec) / ALTAZ_DUTY / _RATE_STEP_ARCSEC - 1e-9)
+    return max(1, min(steps, round(guide_arcsec_s / _RATE_STEP_ARCSEC))) * _RATE_STEP_ARCSEC
 
 
 def ra_rate_to_arcsec(seconds_per_sidereal_second: float) -> float:
@@ -157,7 +178,8 @@ class OffsetsMixin:
         def _guard(self, generation: int) -> Callable[[], bool]: ...
         def _notify(self) -> None: ...
         def _guide_pulse(self, direction: Direction, milliseconds: int,
-                         guard: Callable[[], bool] | None = None, offset: bool = False) -> float: ...
+                         guard: Callable[[], bool] | None = None, offset: bool = False,
+                         speed_arcsec: float | None = None) -> float: ...
 
     def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
         """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east)."""
@@ -187,9 +209,9 @@ class OffsetsMixin:
                 self._drift(axis, wanted)
         if offsets.due(now):
             offsets.accrue(now)
-            self._pay_offsets(now, guide)
+            self._pay_offsets(now, guide, state.altaz)
 
-    def _pay_offsets(self, now: float, guide: float) -> None:
+    def _pay_offsets(self, now: float, guide: float, altaz: bool) -> None:
         """One cycle: the owed displacement of each pulse-paid axis becomes a guide pulse."""
         offsets = self.offsets
         generation = self.generation
@@ -199,18 +221,19 @@ class OffsetsMixin:
                 continue
             if axis in self.pulses or offsets.axes[axis].pulse_end > now:
                 continue  # a client pulse (or the last offset pulse) is running there
-            pulse = offsets.next_pulse(axis, guide)
+            speed = pulse_speed_arcsec(offsets.axes[axis].rate, guide, altaz)
+            pulse = offsets.next_pulse(axis, speed)
             if pulse is None:
                 continue
             direction, ms = pulse
             try:
                 end = self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation),
-                                        offset=True)
+                                        offset=True, speed_arcsec=speed)
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.debug("rate offset pulse not sent: %s", exc)
-                offsets.axes[axis].owed += ms / 1000.0 * guide * direction_sign(direction)
+                offsets.axes[axis].owed += ms / 1000.0 * speed * direction_sign(direction)
                 continue
-            offsets.sent(axis, end, ms, direction, guide)
+            offsets.sent(axis, end, ms, direction, speed)
 
     def _drift(self, axis: int, rate_deg_s: float) -> None:
         try:
