@@ -148,6 +148,8 @@ class Link:
     """The single owner of the mount port. Thread-safe; every method may be called from any thread."""
 
     #: Silence that proves the input is empty: 48 bytes' time at 9600 baud.
+    #: The longest one wait for an idle line (48 bytes at 9600 baud): a bound, should the model be off.
+    IDLE_WAIT_MAX_S = 0.05
     QUIET_S = 0.05
     #: How long a resynchronisation may keep draining a babbling line before giving up for now.
     DRAIN_LIMIT_S = 1.0
@@ -178,8 +180,11 @@ class Link:
         self._arbiter = _Arbiter()
         self._write_lock = threading.Lock()  # held only around one port.write (urgent lane + exchanges)
         #: When (time.monotonic) everything written so far has left the host at ``baud``: the line is
-        #: idle after that (see :meth:`_write_on_idle_line`).
+        #: idle after that (the ``idle`` writes wait for it). A reply proves its request arrived, so
+        #: it ends the backlog (a line that ignores the baud would otherwise pile up a model backlog
+        #: of seconds); an urgent write's own bytes still count (``_urgent_free``).
         self._tx_free = 0.0
+        self._urgent_free = 0.0
         self._state_lock = threading.Lock()
         self._status = LinkStatus(LinkState.CLOSED, url, time.time())
         self._suspect = False
@@ -320,6 +325,8 @@ class Link:
             written = self._write(port, req.wire, None, idle)
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f"mount link lost while stopping: {exc}") from exc
+        if self.baud:
+            self._urgent_free = written + len(req.wire) * 10.0 / self.baud
         self.counters.bytes_out += len(req.wire)
         self.counters.exchanges += 1
         self._record(req.text, "", started, "urgent")
@@ -330,12 +337,13 @@ class Link:
 
         ``idle``: not before everything written earlier has left the host at ``baud`` (the wait is
         outside the lock, so a stop is never held up by it; a write that slipped in meanwhile is
-        waited out too, a bounded number of times)."""
+        waited out too, a bounded number of times). The wait is at most the bytes written since the
+        last reply: a few requests' worth, milliseconds."""
         for attempt in range(8):
             if idle:
                 delay = self._tx_free - time.monotonic()
                 if delay > 0:
-                    time.sleep(delay)
+                    time.sleep(min(delay, self.IDLE_WAIT_MAX_S))
             with self._write_lock:
                 now = time.monotonic()
                 if idle and self._tx_free > now and attempt < 7:
@@ -370,6 +378,9 @@ class Link:
             self._record(req.text, reply, started, "ambiguous: more bytes followed the reply")
             raise AmbiguousReply(f"ambiguous reply to {req.text}: {reply!r} followed by more bytes")
         self._record(req.text, reply, started)
+        if req.kind is not protocol.ReplyKind.NONE:
+            with self._write_lock:  # the mount has the request: nothing of it is still on the wire
+                self._tx_free = min(self._tx_free, max(time.monotonic(), self._urgent_free))
         if not _plausible(req, reply):
             self._suspect = True
             raise ProtocolError(f"implausible reply {reply!r} to {req.text}")

@@ -25,7 +25,9 @@ from alpaca.telescope import Telescope as AlpycaTelescope
 from alpaca_zwo import sky
 from alpaca_zwo.config import EmulatorSettings
 from alpaca_zwo.emulator import MountModel
+from alpaca_zwo.motion.offsets import pulse_speed_arcsec
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.web import CSRF_HEADER
 from alpaca_zwo.wire_values import MountMode
 from tests.conftest import ServerFactory, make_settings
@@ -182,6 +184,17 @@ def test_rate_offsets_move_the_pointing_at_the_rate_with_and_without_a_pulse(rig
     assert d_dec == pytest.approx(3.0 * elapsed + (15.0 if pulse else 0.0), abs=2.0)
     assert sky.angular_separation(rig.scope.RightAscension, rig.scope.Declination, *rig.model.position()) < 3 * ARCSEC
     assert not [r for r in rig.sent_since(start) if r.startswith(":Mg")]
+
+
+def test_alt_az_offset_pulses_run_slow_enough_to_be_long() -> None:
+    """In alt-az an offset pulse is a host-timed move: it runs at the slowest 0.01x step that pays the
+    offset in half the time (a few ms of timing error is then a small part of each pulse), never above
+    the guide speed; in equatorial mode it is the mount's guide pulse."""
+    step, guide = 0.01 * SIDEREAL_DEG_S * 3600.0, 0.5 * SIDEREAL_DEG_S * 3600.0
+    assert pulse_speed_arcsec(0.05, guide, altaz=True) == pytest.approx(step)  # ConformU's 0.05″/s
+    assert pulse_speed_arcsec(-2.0, guide, altaz=True) == pytest.approx(27 * step)  # 4.06″/s ≥ 2 x 2″/s
+    assert pulse_speed_arcsec(6.0, guide, altaz=True) == pytest.approx(guide)
+    assert pulse_speed_arcsec(0.05, guide, altaz=False) == guide
 
 
 @pytest.mark.parametrize("line", ["paced at 9600 baud", "unpaced (USB CDC ignoring the baud)"])

@@ -11,7 +11,7 @@ import pytest
 
 from alpaca_zwo import protocol as p
 from alpaca_zwo import wire_values
-from alpaca_zwo._exceptions import LinkError, LinkTimeout, MountReplyError, ProtocolError
+from alpaca_zwo._exceptions import LinkError, LinkTimeout, MotionCancelled, MountReplyError, ProtocolError
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.link import Link, LinkState, Priority
 
@@ -230,3 +230,46 @@ def test_trace_is_bounded_and_records_exchanges(emulator: EmulatorServer) -> Non
         assert trace[-1].request == ":GVP#" and trace[-1].reply == "AM5#" and trace[-1].duration_ms >= 0
     finally:
         link.close()
+
+
+def test_a_timed_move_starts_and_stops_on_an_idle_line(model: MountModel) -> None:
+    """What starts a host-timed move (alt-az pulses) goes out only once the ``:Rv…#`` before it has
+    left the line, and so does the stop that ends it, so both reach the mount their own bytes after
+    the instant returned (the pulse measured write to write is the pulse the mount makes)."""
+    server = _serve(model, baud=9600)
+    link = Link(f"socket://127.0.0.1:{server.port}", baud=9600, timeout=1.0)
+    link.open()
+    try:
+        speed, move, stop = (p.set_variable_speed(0.5), p.move(wire_values.Direction.NORTH),
+                             p.stop_direction(wire_values.Direction.NORTH))
+        before = time.monotonic()
+        link.execute(speed)  # reply-less: back as soon as it is written
+        started = link.send_on_idle_line(move)
+        assert started - before >= len(speed.wire) * 10.0 / 9600
+        stopped = link.send_urgent(stop, idle=True)
+        assert stopped - started >= len(move.wire) * 10.0 / 9600
+        assert link.execute(p.query("GVP")) == "AM5"  # the line is still in step
+        assert model.snapshot()["moves_deg_s"] == [None, None]
+    finally:
+        link.close()
+        server.stop()
+
+
+def test_a_withdrawn_timed_move_is_never_written(link: Link, model: MountModel) -> None:
+    with pytest.raises(MotionCancelled):
+        link.send_on_idle_line(p.move(wire_values.Direction.EAST), guard=lambda: False)
+    with pytest.raises(ValueError, match="has a reply"):
+        link.send_on_idle_line(p.query("GVP"))
+    assert model.snapshot()["moves_deg_s"] == [None, None]
+    assert link.execute(p.query("GVP")) == "AM5"
+
+
+def test_a_line_that_ignores_the_baud_piles_up_no_wait(link: Link) -> None:
+    """The link assumes 9600 baud; this emulator answers at once (as USB CDC may). Each reply proves its
+    request arrived, so hundreds of quick exchanges leave no modelled backlog for an idle-line write to
+    wait out (before that rule, 300 polls here made a timed move's start wait about a second)."""
+    for _ in range(300):
+        link.execute(p.query("GVP"))
+    before = time.monotonic()
+    link.send_on_idle_line(p.stop_direction(wire_values.Direction.EAST))
+    assert time.monotonic() - before < 0.1
