@@ -150,6 +150,10 @@ class Link:
     #: Silence that proves the input is empty: 48 bytes' time at 9600 baud.
     #: The longest one wait for an idle line (48 bytes at 9600 baud): a bound, should the model be off.
     IDLE_WAIT_MAX_S = 0.05
+    #: What an idle-line write waits beyond the modelled last byte: the transport's own latency
+    #: (the bytes reach the line, or the emulator's reader, a fraction of a millisecond after the
+    #: write), so a stop written right after a poll does not still queue behind it.
+    IDLE_MARGIN_S = 0.001
     QUIET_S = 0.05
     #: How long a resynchronisation may keep draining a babbling line before giving up for now.
     DRAIN_LIMIT_S = 1.0
@@ -341,19 +345,19 @@ class Link:
         last reply: a few requests' worth, milliseconds."""
         for attempt in range(8):
             if idle:
-                delay = self._tx_free - time.monotonic()
+                delay = self._tx_free + self.IDLE_MARGIN_S - time.monotonic()
                 if delay > 0:
                     time.sleep(min(delay, self.IDLE_WAIT_MAX_S))
             with self._write_lock:
                 now = time.monotonic()
-                if idle and self._tx_free > now and attempt < 7:
+                if idle and self._tx_free + self.IDLE_MARGIN_S > now and attempt < 7:
                     continue  # another write got in first
                 if guard is not None and not guard():
                     raise MotionCancelled(f"{wire.decode('latin-1')} not sent: a stop came first")
                 port.write(wire)
                 if self.baud:
                     self._tx_free = max(now, self._tx_free) + len(wire) * 10.0 / self.baud
-                return now
+                return time.monotonic()
         raise AssertionError("unreachable")
 
     def _exchange_locked(self, req: protocol.Request, guard: Callable[[], bool] | None = None,
@@ -380,7 +384,7 @@ class Link:
         self._record(req.text, reply, started)
         if req.kind is not protocol.ReplyKind.NONE:
             with self._write_lock:  # the mount has the request: nothing of it is still on the wire
-                self._tx_free = min(self._tx_free, max(time.monotonic(), self._urgent_free))
+                self._tx_free = min(self._tx_free, max(time.monotonic() - self.IDLE_MARGIN_S, self._urgent_free))
         if not _plausible(req, reply):
             self._suspect = True
             raise ProtocolError(f"implausible reply {reply!r} to {req.text}")

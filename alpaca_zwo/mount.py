@@ -366,6 +366,7 @@ class Mount:
             # :Rv is latched by the move that follows it (field notes §2.3): always sent, since a
             # mount that rebooted unseen would otherwise move at its power-up speed, the fastest.
             self._exec(protocol.set_variable_speed(multiple))
+            self._exec(self.link.PROBE)  # its reply proves :Rv has arrived: the move goes out on an idle line
             written = self._send_on_idle_line(protocol.move(direction), guard)
             self._move_directions[axis] = direction
             rate_deg_s = (multiple if rate_deg_s > 0 else -multiple) * SIDEREAL_DEG_S
