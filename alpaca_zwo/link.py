@@ -147,13 +147,13 @@ Opener = Callable[..., Any]
 class Link:
     """The single owner of the mount port. Thread-safe; every method may be called from any thread."""
 
-    #: Silence that proves the input is empty: 48 bytes' time at 9600 baud.
     #: The longest one wait for an idle line (48 bytes at 9600 baud): a bound, should the model be off.
     IDLE_WAIT_MAX_S = 0.05
     #: What an idle-line write waits beyond the modelled last byte: the transport's own latency
     #: (the bytes reach the line, or the emulator's reader, a fraction of a millisecond after the
     #: write), so a stop written right after a poll does not still queue behind it.
     IDLE_MARGIN_S = 0.001
+    #: Silence that proves the input is empty: 48 bytes' time at 9600 baud.
     QUIET_S = 0.05
     #: How long a resynchronisation may keep draining a babbling line before giving up for now.
     DRAIN_LIMIT_S = 1.0

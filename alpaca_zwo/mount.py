@@ -343,11 +343,12 @@ class Mount:
         to the mount's 0.01x steps; one that rounds to 0 stops the move.
 
         Returns when (mount time) the command that starts or stops the move was written. Both go
-        out on an idle line (the move after its ``:Rv…#``, 9.4 ms at 9600 baud; the stop after
-        whatever else is leaving, at most one request's bytes), so each reaches the mount its own
-        four bytes later whether the line is paced at the baud or not (USB CDC may ignore it): a
-        host-timed pulse measured from write to write is the pulse the mount makes. A wait for the
-        line is in the returned instant, not hidden after it, so it can be booked."""
+        out on an idle line (the move after a ``:GVP#`` whose reply proves its ``:Rv…#`` has
+        arrived; the stop after whatever else is leaving, at most one request's bytes), so each
+        reaches the mount its own four bytes later whether the line is paced at the baud or not
+        (USB CDC may ignore it), and however late the transport delivers: a host-timed pulse
+        measured from write to write is the pulse the mount makes. A wait for the line is in the
+        returned instant, not hidden after it, so it can be booked."""
         multiple = round(min(abs(rate_deg_s) / SIDEREAL_DEG_S, wire_values.SLEW_SPEEDS[-1]), 2)
         written = self.monotonic()
         if multiple == 0.0:

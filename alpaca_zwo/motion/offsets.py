@@ -20,7 +20,7 @@ Pulses give 1 ms granularity (0.0075″ at 0.5x); moves 0.15″/s. The largest o
 
 In alt-az mode the mount's pulses move nothing, and a "pulse" is a move the supervisor times
 (``guiding.py``) at a speed of the server's choosing: the same schedule then pays each offset in
-timed moves at the slowest 0.01x step that pays it within ``ALTAZ_DUTY`` of the time
+timed moves at the slowest 0.01x step that pays it within ``ALTAZ_DUTY`` (a third) of the time
 (:func:`pulse_speed_arcsec`). A slow offset is so paid in long, slow moves (0.05″/s: 0.01x =
 0.15″/s, about 170 ms per cycle) that a few milliseconds of host timing hardly touch, not in
 guide-speed moves of a few milliseconds that they would (ConformU's 0.05″/s test saw ±10%).
@@ -57,8 +57,10 @@ MAX_DUTY = 0.9
 #: Owed displacement below this many milliseconds of pulse waits for the next cycle.
 MIN_PULSE_MS = 5
 
-#: Alt-az offset pulses (timed moves) run at a speed that pays the offset in about this share of the time.
-ALTAZ_DUTY = 0.5
+#: Alt-az offset pulses (timed moves) run at a speed that pays the offset in about this share of the
+#: time: the rest of the cycle is room for a late start (the other axis's start goes first; at 5x
+#: emulator speed two starts take 0.2 s of mount time), so no cycle is skipped for a running pulse.
+ALTAZ_DUTY = 0.35
 #: The mount's variable-rate step (0.01x sidereal) in arcsec/s.
 _RATE_STEP_ARCSEC = 0.01 * SIDEREAL_DEG_S * 3600.0
 
@@ -78,12 +80,12 @@ def guide_speed_arcsec(guide_rate: float) -> float:
 def pulse_speed_arcsec(rate_arcsec: float, guide_arcsec_s: float, altaz: bool) -> float:
     """The speed (arcsec/s) of the pulses that pay an offset of ``rate_arcsec``: the guide speed for
     the mount's own pulses (equatorial); in alt-az, where a pulse is a move the host times, the
-    slowest 0.01x step that pays the offset within ``ALTAZ_DUTY`` of the time (never above the guide
-    speed), so that a pulse is long and its few milliseconds of timing error a small part of it."""
+    slowest 0.01x step that pays the offset within ``ALTAZ_DUTY`` of the time, so that a pulse is
+    long and its few milliseconds of timing error a small part of it, and every cycle has room for
+    a late start (up to 1.8x the guide speed for the largest offset paid in pulses)."""
     if not altaz:
         return guide_arcsec_s
-    steps = math.ceil(abs(rate_arcsec) / ALTAZ_DUTY / _RATE_STEP_ARCSEC - 1e-9)
-    return max(1, min(steps, round(guide_arcsec_s / _RATE_STEP_ARCSEC))) * _RATE_STEP_ARCSEC
+    return max(1, math.ceil(abs(rate_arcsec) / ALTAZ_DUTY / _RATE_STEP_ARCSEC - 1e-9)) * _RATE_STEP_ARCSEC
 
 
 def ra_rate_to_arcsec(seconds_per_sidereal_second: float) -> float:
@@ -97,6 +99,7 @@ class AxisOffset:
     owed: float = 0.0  # arcsec accrued and not yet paid
     pulse_end: float = 0.0  # mount time the last offset pulse ends
     pulse_speed: float = 0.0  # signed arcsec/s of that pulse
+    start_delay: float = 0.0  # mount s from deciding a pulse to its start (smoothed): paid that much ahead
 
 
 @dataclass
@@ -142,7 +145,10 @@ class RateOffsets:
         """The pulse that pays what is owed on an axis, plus what accrues until the middle of the next
         cycle (booked as paid, so the balance goes slightly negative), or None."""
         axis = self.axes[index]
-        lead = CYCLE_S * 0.5 * (1.0 + abs(axis.rate) / guide_arcsec_s)
+        # Half a cycle (and half the pulse) ahead, plus the time a pulse takes to start: then the
+        # pointing swings around the ideal path, not behind it (an alt-az pulse starts after its
+        # :Rv and a reply, 20 ms real at 9600 baud, and after the other axis's start).
+        lead = CYCLE_S * 0.5 * (1.0 + abs(axis.rate) / guide_arcsec_s) + axis.start_delay
         ms = int(abs(axis.owed + axis.rate * lead) / guide_arcsec_s * 1000.0)
         if ms < MIN_PULSE_MS:
             return None
@@ -157,8 +163,12 @@ class RateOffsets:
         if self.active:
             self.axes[index].owed -= arcsec
 
-    def sent(self, index: int, end: float, ms: int, direction: Direction, guide_arcsec_s: float) -> None:
+    def sent(self, index: int, decided: float, end: float, ms: int, direction: Direction,
+             guide_arcsec_s: float) -> None:
+        """A pulse of ``ms`` decided at ``decided`` ends at ``end`` (mount times)."""
         axis = self.axes[index]
+        delay = min(CYCLE_S, max(0.0, end - ms / 1000.0 - decided))
+        axis.start_delay += (delay - axis.start_delay) * 0.3
         axis.pulse_end = end
         axis.pulse_speed = direction_sign(direction) * guide_arcsec_s if ms else 0.0
 
@@ -233,7 +243,7 @@ class OffsetsMixin:
                 log.debug("rate offset pulse not sent: %s", exc)
                 offsets.axes[axis].owed += ms / 1000.0 * speed * direction_sign(direction)
                 continue
-            offsets.sent(axis, end, ms, direction, speed)
+            offsets.sent(axis, now, end, ms, direction, speed)
 
     def _drift(self, axis: int, rate_deg_s: float) -> None:
         try:

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import os
+import select
+import socket
+import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -12,6 +15,7 @@ from emuclient import MountClient, flags, initialize, target_at
 
 from alpaca_zwo import protocol
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
+from alpaca_zwo.emulator import server as server_module
 from tests.support import wait_until
 
 
@@ -139,3 +143,26 @@ def test_pty_serves_pyserial_clients(model: MountModel, tmp_path: Path) -> None:
             again.write(b":GLC#")
             assert again.read_until(b"#") == b"1#"  # same mount, state kept
         assert old is not None
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="SO_TIMESTAMPNS is Linux's only")
+def test_tcp_bytes_are_timed_by_their_arrival_not_by_when_the_reader_wakes() -> None:
+    """The emulator acts on a command when its last byte would have arrived at the line's baud. A
+    reader thread that wakes late (after a long quiet, and more so when a fast clock multiplies it)
+    must not move that instant: the kernel's receive stamp says when the bytes came."""
+    listener = socket.create_server(("127.0.0.1", 0))
+    client = socket.create_connection(listener.getsockname())
+    accepted, _ = listener.accept()
+    try:
+        accepted.setsockopt(socket.SOL_SOCKET, server_module._SO_TIMESTAMPNS, 1)
+        sent = time.monotonic()
+        client.sendall(b":Qe#")
+        select.select([accepted], [], [], 5.0)
+        time.sleep(0.05)  # the scenario: a reader that gets round to the bytes 50 ms after they came
+        data, ancdata, _flags, _address = accepted.recvmsg(64, socket.CMSG_SPACE(16))
+        stamp = server_module._kernel_stamp(ancdata)
+        assert data == b":Qe#"
+        assert stamp is not None and sent <= stamp + 0.001 and stamp - sent < 0.02
+    finally:
+        for sock in (client, accepted, listener):
+            sock.close()
