@@ -336,7 +336,7 @@ class Mount:
         """The sky rates (deg/s) of the offset moves now running on axis 0 and 1."""
         return self._drift[0], self._drift[1]
 
-    def drift(self, axis: int, rate_deg_s: float, guard: Guard | None = None) -> float:
+    def drift(self, axis: int, rate_deg_s: float, guard: Guard | None = None, exact_start: bool = True) -> float:
         """Run (or stop, with 0) a slow move that carries a tracking rate offset too large for guide
         pulses, or (alt-az mode) a guide pulse. Unlike move_axis it is part of tracking, not a slew:
         moving_axes is left alone and the position estimator carries the motion. The rate is rounded
@@ -348,7 +348,8 @@ class Mount:
         reaches the mount its own four bytes later whether the line is paced at the baud or not
         (USB CDC may ignore it), and however late the transport delivers: a host-timed pulse
         measured from write to write is the pulse the mount makes. A wait for the line is in the
-        returned instant, not hidden after it, so it can be booked."""
+        returned instant, not hidden after it, so it can be booked. ``exact_start`` False skips the
+        proof (a speed change of a running move, where a few ms matter at the change in speed only)."""
         multiple = round(min(abs(rate_deg_s) / SIDEREAL_DEG_S, wire_values.SLEW_SPEEDS[-1]), 2)
         written = self.monotonic()
         if multiple == 0.0:
@@ -367,7 +368,8 @@ class Mount:
             # :Rv is latched by the move that follows it (field notes §2.3): always sent, since a
             # mount that rebooted unseen would otherwise move at its power-up speed, the fastest.
             self._exec(protocol.set_variable_speed(multiple))
-            self._exec(self.link.PROBE)  # its reply proves :Rv has arrived: the move goes out on an idle line
+            if exact_start:  # the reply proves :Rv has arrived: the move goes out on an idle line
+                self._exec(self.link.PROBE)
             written = self._send_on_idle_line(protocol.move(direction), guard)
             self._move_directions[axis] = direction
             rate_deg_s = (multiple if rate_deg_s > 0 else -multiple) * SIDEREAL_DEG_S

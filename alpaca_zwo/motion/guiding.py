@@ -14,8 +14,8 @@ reaches the mount its own four bytes after the instant recorded, on a line paced
 one that ignores the baud: the pulse the mount makes is the one measured. A timed move still runs a
 little longer than planned (the supervisor's wake-up; a stop waiting for the other axis's
 ``:Rv…#:M?#`` to leave the line, up to 13.5 ms at 9600 baud); for a rate-offset pulse that difference
-is booked against the offset's balance, so a slow offset (ConformU tests 0.05″/s, paid in pulses of a
-few ms) and offsets on both axes at once keep their rates.
+is booked against the offset's balance. (Rate offsets in alt-az are not paid in pulses but by a
+modulated move, offsets.py.)
 
 Every stop (AbortSlew, a new slew, the last client leaving, shutdown, a safety stop) ends timed moves
 with everything else; a timed move that cannot be stopped triggers a safety stop.
@@ -90,19 +90,18 @@ class GuidingMixin:
     # -- one pulse, as the mount can make it -----------------------------------------------------
 
     def _guide_pulse(self, direction: Direction, milliseconds: int, guard: Callable[[], bool] | None = None,
-                     offset: bool = False, speed_arcsec: float | None = None) -> float:
+                     offset: bool = False) -> float:
         """Send one pulse (≤ 3000 ms in equatorial mode, any length in alt-az); return its end in
         mount time. Raises what the link raises; MotionCancelled if ``guard`` withdrew it.
-        ``offset``: the pulse pays a rate offset (its overrun is booked there). ``speed_arcsec``: in
-        alt-az, the timed move's speed if not the guide speed (offsets.pulse_speed_arcsec)."""
+        ``offset``: the pulse pays a rate offset (its overrun is booked there)."""
         state = self.mount.state
         if not state.altaz:
             return self.mount.pulse_guide(direction, milliseconds, guard=guard)
         axis = pulse_axis(direction)
-        speed_deg_s = state.guide_rate * SIDEREAL_DEG_S if speed_arcsec is None else speed_arcsec / 3600.0
         with self._timed_lock:
-            start = self.mount.drift(axis, direction_sign(direction) * speed_deg_s,
+            start = self.mount.drift(axis, direction_sign(direction) * state.guide_rate * SIDEREAL_DEG_S,
                                      guard=guard)  # when the move command was written
+            self.offsets.handover(axis, start)  # an offset move there ended as this one began
             speed = self.mount.drift_rates[axis] * 3600.0  # as the mount runs it (0.01x steps)
             move = TimedMove(start, start + milliseconds / 1000.0, speed, offset)
             with self._lock:

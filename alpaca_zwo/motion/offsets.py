@@ -18,18 +18,19 @@ cannot be paid in pulses; it runs instead as a slow continuous move at the mount
 Pulses give 1 ms granularity (0.0075″ at 0.5x); moves 0.15″/s. The largest offset is
 ``MAX_OFFSET_ARCSEC`` per second.
 
-In alt-az mode the mount's pulses move nothing, and a "pulse" is a move the supervisor times
-(``guiding.py``) at a speed of the server's choosing: the same schedule then pays each offset in
-timed moves at the slowest 0.01x step that pays it within ``ALTAZ_DUTY`` (a third) of the time
-(:func:`pulse_speed_arcsec`). A slow offset is so paid in long, slow moves (0.05″/s: 0.01x =
-0.15″/s, about 170 ms per cycle) that a few milliseconds of host timing hardly touch, not in
-guide-speed moves of a few milliseconds that they would (ConformU's 0.05″/s test saw ±10%).
+In alt-az mode the mount's pulses move nothing, and the host would have to time every pulse's start
+and stop (``guiding.py``), each a few milliseconds off at the whole pulse speed. Its moves, though,
+run at any 0.01x step (``:Rv``) and change speed on the next ``:M?#``. So in alt-az each offset is one
+continuous move whose speed is set once a cycle to the step nearest to the rate plus what is owed
+(:meth:`OffsetsMixin._modulate`, a sigma-delta modulator): it alternates between the two steps around
+the rate, the pointing stays within a step x a cycle (0.08″) of the ideal path, and timing errors
+count only at the change of speed (0.15″/s). A client pulse takes the axis over for its length; the
+offset keeps accruing and is paid after it.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -42,6 +43,8 @@ from ..wire_values import Direction
 from .guiding import direction_sign
 
 if TYPE_CHECKING:
+    import threading
+
     from .guiding import TimedMove
     from .kinds import ManualMove, Motion, Pulse
 
@@ -57,10 +60,6 @@ MAX_DUTY = 0.9
 #: Owed displacement below this many milliseconds of pulse waits for the next cycle.
 MIN_PULSE_MS = 5
 
-#: Alt-az offset pulses (timed moves) run at a speed that pays the offset in about this share of the
-#: time: the rest of the cycle is room for a late start (the other axis's start goes first; at 5x
-#: emulator speed two starts take 0.2 s of mount time), so no cycle is skipped for a running pulse.
-ALTAZ_DUTY = 0.35
 #: The mount's variable-rate step (0.01x sidereal) in arcsec/s.
 _RATE_STEP_ARCSEC = 0.01 * SIDEREAL_DEG_S * 3600.0
 
@@ -77,17 +76,6 @@ def guide_speed_arcsec(guide_rate: float) -> float:
     return guide_rate * SIDEREAL_DEG_S * 3600.0
 
 
-def pulse_speed_arcsec(rate_arcsec: float, guide_arcsec_s: float, altaz: bool) -> float:
-    """The speed (arcsec/s) of the pulses that pay an offset of ``rate_arcsec``: the guide speed for
-    the mount's own pulses (equatorial); in alt-az, where a pulse is a move the host times, the
-    slowest 0.01x step that pays the offset within ``ALTAZ_DUTY`` of the time, so that a pulse is
-    long and its few milliseconds of timing error a small part of it, and every cycle has room for
-    a late start (up to 1.8x the guide speed for the largest offset paid in pulses)."""
-    if not altaz:
-        return guide_arcsec_s
-    return max(1, math.ceil(abs(rate_arcsec) / ALTAZ_DUTY / _RATE_STEP_ARCSEC - 1e-9)) * _RATE_STEP_ARCSEC
-
-
 def ra_rate_to_arcsec(seconds_per_sidereal_second: float) -> float:
     """ASCOM RightAscensionRate (RA seconds per sidereal second) in arcseconds of RA per SI second."""
     return seconds_per_sidereal_second * 15.0 / SOLAR_SECONDS_PER_SIDEREAL_SECOND
@@ -100,6 +88,13 @@ class AxisOffset:
     pulse_end: float = 0.0  # mount time the last offset pulse ends
     pulse_speed: float = 0.0  # signed arcsec/s of that pulse
     start_delay: float = 0.0  # mount s from deciding a pulse to its start (smoothed): paid that much ahead
+    drift_speed: float = 0.0  # alt-az: signed arcsec/s of the offset move running (as the mount runs it)
+    drift_since: float = 0.0  # alt-az: mount time up to which that move's displacement is booked
+
+    def book_drift(self, until: float) -> None:
+        """Alt-az: count what the offset move paid up to ``until`` (mount time) against the balance."""
+        self.owed -= self.drift_speed * (until - self.drift_since)
+        self.drift_since = until
 
 
 @dataclass
@@ -122,6 +117,7 @@ class RateOffsets:
         """Forget what is owed (a slew moved the mount somewhere new, tracking stopped)."""
         for axis in self.axes:
             axis.owed = 0.0
+            axis.drift_speed = 0.0
         self.accrued_at = None
 
     def accrue(self, now: float) -> None:
@@ -145,9 +141,8 @@ class RateOffsets:
         """The pulse that pays what is owed on an axis, plus what accrues until the middle of the next
         cycle (booked as paid, so the balance goes slightly negative), or None."""
         axis = self.axes[index]
-        # Half a cycle (and half the pulse) ahead, plus the time a pulse takes to start: then the
-        # pointing swings around the ideal path, not behind it (an alt-az pulse starts after its
-        # :Rv and a reply, 20 ms real at 9600 baud, and after the other axis's start).
+        # Half a cycle (and half the pulse) ahead, plus the time a pulse takes to start (its exchange,
+        # the other axis's pulse first): then the pointing swings around the ideal path, not behind it.
         lead = CYCLE_S * 0.5 * (1.0 + abs(axis.rate) / guide_arcsec_s) + axis.start_delay
         ms = int(abs(axis.owed + axis.rate * lead) / guide_arcsec_s * 1000.0)
         if ms < MIN_PULSE_MS:
@@ -157,6 +152,13 @@ class RateOffsets:
         paid = ms / 1000.0 * guide_arcsec_s
         axis.owed -= paid if direction is positive else -paid
         return direction, ms
+
+    def handover(self, index: int, at: float) -> None:
+        """Alt-az: a client pulse took over the axis at ``at`` (mount time): the offset move ends there."""
+        axis = self.axes[index]
+        if axis.drift_speed:
+            axis.book_drift(at)
+            axis.drift_speed = 0.0
 
     def overran(self, index: int, arcsec: float) -> None:
         """An offset pulse moved ``arcsec`` (signed) more than it was booked for (alt-az timed moves)."""
@@ -183,13 +185,13 @@ class OffsetsMixin:
     pulses: dict[int, Pulse]
     timed_moves: dict[int, TimedMove]
     generation: int
+    _timed_lock: threading.Lock
 
     if TYPE_CHECKING:  # provided by MotionSupervisor
         def _guard(self, generation: int) -> Callable[[], bool]: ...
         def _notify(self) -> None: ...
         def _guide_pulse(self, direction: Direction, milliseconds: int,
-                         guard: Callable[[], bool] | None = None, offset: bool = False,
-                         speed_arcsec: float | None = None) -> float: ...
+                         guard: Callable[[], bool] | None = None, offset: bool = False) -> float: ...
 
     def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
         """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east)."""
@@ -211,6 +213,9 @@ class OffsetsMixin:
                 for axis in own:
                     self._drift(axis, 0.0)
             return
+        if state.altaz:
+            self._tick_altaz_offsets(now, own)
+            return
         guide = guide_speed_arcsec(state.guide_rate)
         for axis in own:
             rate = offsets.axes[axis].rate
@@ -219,9 +224,9 @@ class OffsetsMixin:
                 self._drift(axis, wanted)
         if offsets.due(now):
             offsets.accrue(now)
-            self._pay_offsets(now, guide, state.altaz)
+            self._pay_offsets(now, guide)
 
-    def _pay_offsets(self, now: float, guide: float, altaz: bool) -> None:
+    def _pay_offsets(self, now: float, guide: float) -> None:
         """One cycle: the owed displacement of each pulse-paid axis becomes a guide pulse."""
         offsets = self.offsets
         generation = self.generation
@@ -231,19 +236,50 @@ class OffsetsMixin:
                 continue
             if axis in self.pulses or offsets.axes[axis].pulse_end > now:
                 continue  # a client pulse (or the last offset pulse) is running there
-            speed = pulse_speed_arcsec(offsets.axes[axis].rate, guide, altaz)
-            pulse = offsets.next_pulse(axis, speed)
+            pulse = offsets.next_pulse(axis, guide)
             if pulse is None:
                 continue
             direction, ms = pulse
             try:
                 end = self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation),
-                                        offset=True, speed_arcsec=speed)
+                                        offset=True)
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.debug("rate offset pulse not sent: %s", exc)
-                offsets.axes[axis].owed += ms / 1000.0 * speed * direction_sign(direction)
+                offsets.axes[axis].owed += ms / 1000.0 * guide * direction_sign(direction)
                 continue
-            offsets.sent(axis, now, end, ms, direction, speed)
+            offsets.sent(axis, now, end, ms, direction, guide)
+
+    def _tick_altaz_offsets(self, now: float, own: list[int]) -> None:
+        """Alt-az: once a cycle, set each free axis's offset move for the next cycle."""
+        if self.offsets.due(now):
+            self.offsets.accrue(now)
+            for axis in own:
+                if axis not in self.pulses:
+                    self._modulate(axis, now)
+
+    def _modulate(self, axis: int, now: float) -> None:
+        """Alt-az: run the axis's offset move for the next cycle at the 0.01x step nearest to the rate
+        plus what is owed (paid over the cycle). The speed so alternates between the two steps around
+        the rate (a sigma-delta modulator): the pointing stays within a step x a cycle (0.08″) of the
+        ideal path, and a command's timing error counts only at the change of speed (0.15″/s), not at
+        the whole speed as it would for a pulse that starts and stops."""
+        offset = self.offsets.axes[axis]
+        with self._timed_lock:
+            if axis in self.timed_moves:
+                return  # a client pulse has the axis
+            offset.book_drift(now)
+            wanted = offset.rate + offset.owed / CYCLE_S
+            wanted = max(-MAX_OFFSET_ARCSEC, min(MAX_OFFSET_ARCSEC, wanted))
+            steps = round(abs(wanted) / _RATE_STEP_ARCSEC) * (1 if wanted > 0 else -1)
+            if steps == round(offset.drift_speed / _RATE_STEP_ARCSEC):
+                return  # already running at that step
+            try:
+                written = self.mount.drift(axis, wanted / 3600.0, guard=self._guard(self.generation), exact_start=False)
+            except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
+                log.warning("rate offset move on axis %d not changed: %s", axis, exc)
+                return
+            offset.book_drift(written)  # the old speed ran until the change was written
+            offset.drift_speed = self.mount.drift_rates[axis] * 3600.0
 
     def _drift(self, axis: int, rate_deg_s: float) -> None:
         try:
