@@ -11,11 +11,10 @@ by the host, to a few milliseconds (0.02″ at the default guide speed), and nee
 One timed move per axis, like one ``:Mg`` per axis on the mount: a new pulse on an axis replaces the
 running one. Its start and its stop are both written on an idle line (:meth:`Mount.drift`), so each
 reaches the mount its own four bytes after the instant recorded, on a line paced at 9600 baud or on
-one that ignores the baud: the pulse the mount makes is the one measured. A timed move still runs a
-little longer than planned (the supervisor's wake-up; a stop waiting for the other axis's
-``:Rv…#:M?#`` to leave the line, up to 13.5 ms at 9600 baud); for a rate-offset pulse that difference
-is booked against the offset's balance. (Rate offsets in alt-az are not paid in pulses but by a
-modulated move, offsets.py.)
+one that ignores the baud: the pulse the mount makes is the one measured. A timed move may still
+run a little longer than asked (the supervisor's wake-up; a stop waiting for the other axis's start
+to leave the line, up to ~25 ms at 9600 baud: 0.2″ at the guide speed). Rate offsets in alt-az are
+not paid in pulses but by a modulated move (offsets.py).
 
 Every stop (AbortSlew, a new slew, the last client leaving, shutdown, a safety stop) ends timed moves
 with everything else; a timed move that cannot be stopped triggers a safety stop.
@@ -55,8 +54,6 @@ class TimedMove:
 
     start: float  # the move command was written (on an idle line)
     end: float  # due to stop
-    speed: float  # signed arcsec/s: + is east on axis 0, north on axis 1
-    offset: bool  # paid for a rate offset: an overrun is booked against its balance
 
 
 def pulse_axis(direction: Direction) -> int:
@@ -89,11 +86,9 @@ class GuidingMixin:
 
     # -- one pulse, as the mount can make it -----------------------------------------------------
 
-    def _guide_pulse(self, direction: Direction, milliseconds: int, guard: Callable[[], bool] | None = None,
-                     offset: bool = False) -> float:
+    def _guide_pulse(self, direction: Direction, milliseconds: int, guard: Callable[[], bool] | None = None) -> float:
         """Send one pulse (≤ 3000 ms in equatorial mode, any length in alt-az); return its end in
-        mount time. Raises what the link raises; MotionCancelled if ``guard`` withdrew it.
-        ``offset``: the pulse pays a rate offset (its overrun is booked there)."""
+        mount time. Raises what the link raises; MotionCancelled if ``guard`` withdrew it."""
         state = self.mount.state
         if not state.altaz:
             return self.mount.pulse_guide(direction, milliseconds, guard=guard)
@@ -102,8 +97,7 @@ class GuidingMixin:
             start = self.mount.drift(axis, direction_sign(direction) * state.guide_rate * SIDEREAL_DEG_S,
                                      guard=guard)  # when the move command was written
             self.offsets.handover(axis, start)  # an offset move there ended as this one began
-            speed = self.mount.drift_rates[axis] * 3600.0  # as the mount runs it (0.01x steps)
-            move = TimedMove(start, start + milliseconds / 1000.0, speed, offset)
+            move = TimedMove(start, start + milliseconds / 1000.0)
             with self._lock:
                 self.timed_moves[axis] = move
         self._notify()
@@ -125,12 +119,10 @@ class GuidingMixin:
                     return
                 del self.timed_moves[axis]
             try:
-                stopped = self.mount.drift(axis, 0.0)  # when the stop was written
+                self.mount.drift(axis, 0.0)
             except (LinkError, ProtocolError, MountReplyError) as exc:
                 failure = exc
             else:
-                if running.offset:  # longer (or shorter) than booked: the balance carries the difference
-                    self.offsets.overran(axis, (stopped - running.end) * running.speed)
                 return
         self.safety_stop(f"ending an alt-az guide pulse on axis {axis} failed: {failure}")
 

@@ -160,11 +160,6 @@ class RateOffsets:
             axis.book_drift(at)
             axis.drift_speed = 0.0
 
-    def overran(self, index: int, arcsec: float) -> None:
-        """An offset pulse moved ``arcsec`` (signed) more than it was booked for (alt-az timed moves)."""
-        if self.active:
-            self.axes[index].owed -= arcsec
-
     def sent(self, index: int, decided: float, end: float, ms: int, direction: Direction,
              guide_arcsec_s: float) -> None:
         """A pulse of ``ms`` decided at ``decided`` ends at ``end`` (mount times)."""
@@ -191,7 +186,7 @@ class OffsetsMixin:
         def _guard(self, generation: int) -> Callable[[], bool]: ...
         def _notify(self) -> None: ...
         def _guide_pulse(self, direction: Direction, milliseconds: int,
-                         guard: Callable[[], bool] | None = None, offset: bool = False) -> float: ...
+                         guard: Callable[[], bool] | None = None) -> float: ...
 
     def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
         """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east)."""
@@ -241,8 +236,7 @@ class OffsetsMixin:
                 continue
             direction, ms = pulse
             try:
-                end = self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation),
-                                        offset=True)
+                end = self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation))
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.debug("rate offset pulse not sent: %s", exc)
                 offsets.axes[axis].owed += ms / 1000.0 * guide * direction_sign(direction)
