@@ -204,8 +204,8 @@ def test_slow_offsets_on_both_axes_keep_their_rates_on_either_kind_of_line(serve
     after = rig.model.position()
     d_ra = ((after[0] - before[0] + 12.0) % 24.0 - 12.0) * 15.0 * 3600.0
     d_dec = (after[1] - before[1]) * 3600.0
-    # 20″ each. What is owed when the rates go to 0 (a couple of steps x a cycle, 0.15″) is dropped, and
-    # the moves stop at the supervisor's next tick; a loaded CI machine stretched that to 0.45″ once.
+    # 20″ each. What is owed when the rates go to 0 (about a step x a cycle, 0.08″) is dropped, and the
+    # moves stop at the supervisor's next tick; a loaded CI machine stretched that to 0.45″ once.
     assert d_ra == pytest.approx(0.5 * elapsed, abs=1.0)
     assert d_dec == pytest.approx(0.5 * elapsed, abs=1.0)
     rig.scope.Connected = False

@@ -23,7 +23,7 @@ and stop (``guiding.py``), each a few milliseconds off at the whole pulse speed.
 run at any 0.01x step (``:Rv``) and change speed on the next ``:M?#``. So in alt-az each offset is one
 continuous move whose speed is set once a cycle to the step nearest to the rate plus what is owed
 (:meth:`OffsetsMixin._modulate`, a sigma-delta modulator): it alternates between the two steps around
-the rate, the pointing stays within a couple of steps x a cycle (0.15″) of the path, and timing errors
+the rate, the pointing stays within a step x a cycle (0.08″) of the ideal path, and timing errors
 count only at the change of speed (0.15″/s). A client pulse takes the axis over for its length; the
 offset keeps accruing and is paid after it.
 """
@@ -90,7 +90,6 @@ class AxisOffset:
     start_delay: float = 0.0  # mount s from deciding a pulse to its start (smoothed): paid that much ahead
     drift_speed: float = 0.0  # alt-az: signed arcsec/s of the offset move running (as the mount runs it)
     drift_since: float = 0.0  # alt-az: mount time up to which that move's displacement is booked
-    modulated_at: float = 0.0  # alt-az: mount time the move's speed was last chosen
 
     def book_drift(self, until: float) -> None:
         """Alt-az: count what the offset move paid up to ``until`` (mount time) against the balance."""
@@ -255,20 +254,15 @@ class OffsetsMixin:
     def _modulate(self, axis: int, now: float) -> None:
         """Alt-az: run the axis's offset move for the next cycle at the 0.01x step nearest to the rate
         plus what is owed (paid over the cycle). The speed so alternates between the two steps around
-        the rate (a sigma-delta modulator): the pointing stays within a couple of steps x a cycle
-        (about 0.15″) of the ideal path, and a command's timing error counts only at the change of
-        speed (0.15″/s), not at the whole speed as it would for a pulse that starts and stops."""
+        the rate (a sigma-delta modulator): the pointing stays within a step x a cycle (0.08″) of the
+        ideal path, and a command's timing error counts only at the change of speed (0.15″/s), not at
+        the whole speed as it would for a pulse that starts and stops."""
         offset = self.offsets.axes[axis]
         with self._timed_lock:
             if axis in self.timed_moves:
                 return  # a client pulse has the axis
             offset.book_drift(now)
-            # Pay half the balance over the next cycle, as long as the last one really was (ticks run
-            # late under load): a full correction over a cycle that turns out twice as long would
-            # overshoot by as much as it corrects, and the balance would swing instead of settle.
-            interval = min(4.0 * CYCLE_S, max(CYCLE_S, now - offset.modulated_at))
-            offset.modulated_at = now
-            wanted = offset.rate + 0.5 * offset.owed / interval
+            wanted = offset.rate + offset.owed / CYCLE_S
             wanted = max(-MAX_OFFSET_ARCSEC, min(MAX_OFFSET_ARCSEC, wanted))
             steps = round(abs(wanted) / _RATE_STEP_ARCSEC) * (1 if wanted > 0 else -1)
             if steps == round(offset.drift_speed / _RATE_STEP_ARCSEC):
