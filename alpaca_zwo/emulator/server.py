@@ -87,7 +87,7 @@ class _Line:
         #: tell (the kernel's receive stamp): the reader thread may wake a fraction of a millisecond
         #: later, more after a long idle than a short one, which at 5x would make a stop written after
         #: 250 ms of quiet act later than the move written right after a reply.
-        self.rx_stamp: float | None = None
+        self._rx_stamp: float | None = None
         self._counter_lock = threading.Lock()
         self.bytes_in = 0
         self.bytes_out = 0
@@ -140,7 +140,7 @@ class _Line:
                 if data is None:
                     break
                 if data:
-                    self._take(data, time.monotonic() if self.rx_stamp is None else self.rx_stamp)
+                    self._take(data, time.monotonic() if self._rx_stamp is None else self._rx_stamp)
         except Exception:  # never let a line take the server down
             if not self.closed.is_set():
                 _log.exception("line %s reader failed", self.id)
@@ -253,7 +253,7 @@ class _TcpLine(_Line):
         try:
             if self._stamped:
                 data, ancdata, _flags, _address = self.sock.recvmsg(4096, socket.CMSG_SPACE(16))
-                self.rx_stamp = _kernel_stamp(ancdata)
+                self._rx_stamp = _kernel_stamp(ancdata)
             else:
                 data = self.sock.recv(4096)
         except OSError:

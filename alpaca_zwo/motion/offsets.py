@@ -267,17 +267,17 @@ class OffsetsMixin:
             steps = round(abs(wanted) / _RATE_STEP_ARCSEC) * (1 if wanted > 0 else -1)
             if steps == round(offset.drift_speed / _RATE_STEP_ARCSEC):
                 return  # already running at that step
-            try:
-                written = self.mount.drift(axis, wanted / 3600.0, guard=self._guard(self.generation), exact_start=False)
-            except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
-                log.warning("rate offset move on axis %d not changed: %s", axis, exc)
-                return
+            written = self._drift(axis, wanted / 3600.0, exact_start=False)
+            if written is None:
+                return  # unchanged: the old speed still runs
             offset.book_drift(written)  # the old speed ran until the change was written
             offset.drift_speed = self.mount.drift_rates[axis] * 3600.0
 
-    def _drift(self, axis: int, rate_deg_s: float) -> None:
+    def _drift(self, axis: int, rate_deg_s: float, exact_start: bool = True) -> float | None:
+        """Set an offset move (Mount.drift); when its command was written (mount time), or None if not."""
         try:
-            self.mount.drift(axis, rate_deg_s, guard=self._guard(self.generation))
+            return self.mount.drift(axis, rate_deg_s, guard=self._guard(self.generation), exact_start=exact_start)
         except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
             log.warning("rate offset move on axis %d not changed: %s", axis, exc)
+            return None
 
