@@ -227,13 +227,27 @@ _SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35 if sys.platform == "linux
 
 
 def _kernel_stamp(ancdata: list[tuple[int, int, bytes]]) -> float | None:
-    """The SO_TIMESTAMPNS receive stamp in ``ancdata`` as a time.monotonic() instant, or None."""
+    """The SO_TIMESTAMPNS receive stamp in ``ancdata`` (wall-clock seconds, as ``time.time()``), or None."""
     for level, kind, payload in ancdata:
         if level == socket.SOL_SOCKET and kind == _SO_TIMESTAMPNS and len(payload) >= 16:
             seconds, nanoseconds = struct.unpack("qq", payload[:16])  # type: tuple[int, int]
-            age = max(0.0, time.time() - (seconds + nanoseconds / 1e9))  # the stamp is wall-clock time
-            return time.monotonic() - age if age < 1.0 else None  # (a clock step: use the reader's time)
+            return seconds + nanoseconds / 1e9
     return None
+
+
+#: A receive stamp older than this is taken for a step of the wall clock, not a late reader.
+_STAMP_MAX_AGE_S = 30.0
+
+
+def _monotonic_arrival(wall_stamp: float | None) -> float:
+    """A kernel receive stamp as a time.monotonic() instant. However late the reader got to the bytes
+    (a stalled machine), the stamp says when they came; only a wall-clock step (the stamp in the future,
+    or older than any stall) falls back to the reader's own clock."""
+    now = time.monotonic()
+    if wall_stamp is None:
+        return now
+    age = time.time() - wall_stamp
+    return now - age if 0.0 <= age < _STAMP_MAX_AGE_S else now
 
 
 class _TcpLine(_Line):
@@ -253,7 +267,7 @@ class _TcpLine(_Line):
         try:
             if self._stamped:
                 data, ancdata, _flags, _address = self.sock.recvmsg(4096, socket.CMSG_SPACE(16))
-                self._rx_stamp = _kernel_stamp(ancdata)
+                self._rx_stamp = _monotonic_arrival(_kernel_stamp(ancdata))
             else:
                 data = self.sock.recv(4096)
         except OSError:

@@ -148,21 +148,41 @@ def test_pty_serves_pyserial_clients(model: MountModel, tmp_path: Path) -> None:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="SO_TIMESTAMPNS is Linux's only")
 def test_tcp_bytes_are_timed_by_their_arrival_not_by_when_the_reader_wakes() -> None:
     """The emulator acts on a command when its last byte would have arrived at the line's baud. A
-    reader thread that wakes late (after a long quiet, and more so when a fast clock multiplies it)
-    must not move that instant: the kernel's receive stamp says when the bytes came."""
+    reader thread that wakes late (after a long quiet, and more so when a fast clock multiplies it, or
+    on a machine that stalls it) must not move that instant: the kernel's receive stamp says when the
+    bytes came. The read here is made late on purpose; the stamp must still say when they were sent."""
     listener = socket.create_server(("127.0.0.1", 0))
     client = socket.create_connection(listener.getsockname())
     accepted, _ = listener.accept()
     try:
         accepted.setsockopt(socket.SOL_SOCKET, server_module._SO_TIMESTAMPNS, 1)
-        sent = time.monotonic()
+        sent_wall, sent = time.time(), time.monotonic()
         client.sendall(b":Qe#")
         select.select([accepted], [], [], 5.0)
-        time.sleep(0.05)  # the scenario: a reader that gets round to the bytes 50 ms after they came
+        time.sleep(0.05)  # the scenario: a reader that gets round to the bytes 50 ms (or more) after they came
         data, ancdata, _flags, _address = accepted.recvmsg(64, socket.CMSG_SPACE(16))
-        stamp = server_module._kernel_stamp(ancdata)
+        read = time.monotonic()
+        wall_stamp = server_module._kernel_stamp(ancdata)
+        arrival = server_module._monotonic_arrival(wall_stamp)
         assert data == b":Qe#"
-        assert stamp is not None and sent <= stamp + 0.001 and stamp - sent < 0.02
+        assert wall_stamp is not None, f"no SO_TIMESTAMPNS stamp in {ancdata!r}"
+        assert sent_wall - 0.001 <= wall_stamp <= time.time()
+        # Converted to the monotonic clock, it is the arrival (right after the send), not the late read.
+        assert sent - 0.001 <= arrival < read - 0.04
+        assert arrival - sent < (read - sent) / 2
     finally:
         for sock in (client, accepted, listener):
             sock.close()
+
+
+def test_a_receive_stamp_from_a_stepped_wall_clock_falls_back_to_the_reader_clock() -> None:
+    """A wall clock stepped between arrival and read would move the arrival by the step: a stamp in the
+    future, or older than any stall, is not used."""
+    before = time.monotonic()
+    for stepped in (time.time() + 5.0, time.time() - 3600.0, None):
+        arrival = server_module._monotonic_arrival(stepped)
+        assert before <= arrival <= time.monotonic()
+    stall_wall, before = time.time() - 2.0, time.monotonic()
+    late = server_module._monotonic_arrival(stall_wall)  # a 2 s stall: still the kernel's stamp
+    after = time.monotonic()
+    assert before - 2.0 - (after - before) - 0.001 <= late <= after - 2.0 + 0.001
