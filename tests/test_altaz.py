@@ -211,6 +211,38 @@ def test_slow_offsets_on_both_axes_keep_their_rates_on_either_kind_of_line(serve
     rig.scope.Connected = False
 
 
+def test_rates_zeroed_during_a_speed_change_leave_nothing_owed_to_the_next_offset(server_factory: ServerFactory) \
+        -> None:
+    """Regression (a ConformU run, RightAscensionRate +0.05″/s measured at 69″/s): the client zeroed the
+    rates while the alt-az modulator's speed change was on the wire; the modulator then booked the
+    speed it had set over the client's reset, the next slew's stop ended that move, and the next
+    offset was charged for it over the whole slew (40″/s x 17 s): paid back at 600″/s. Here the line
+    is stalled so that the speed change waits on the wire when the rate goes to 0, and the slew
+    follows at once, as ConformU's does."""
+    rig = _rig(server_factory, speed=2.0)
+    emulator = rig.server.emulators[0]
+    assert emulator is not None
+    supervisor = rig.server.telescopes[0].motion
+    _tracking_on_a_star(rig)
+    rig.scope.RightAscensionRate = -40.0 / 15.0 / 1.00273790935  # -40″/s: the step changes every cycle
+    _wait_mount_seconds(rig, 2.0)
+    emulator.server.faults.stall(400)  # the poll in flight waits for its reply, and the speed change behind it
+    wait_until(supervisor._timed_lock.locked, 5, "a speed change waiting on the stalled line", interval=0.001)
+    rig.scope.RightAscensionRate = 0.0
+    wait_until(lambda: not supervisor._timed_lock.locked(), 5, "the speed change to be written", interval=0.001)
+    rig.scope.SlewToCoordinatesAsync(_ra_at_ha(rig.scope, -2.5), 30.0)
+    rig.wait_slew("the slew to end")
+    before, t0 = rig.model.position(), rig.mount_seconds()
+    rig.scope.RightAscensionRate = 0.5 / 15.0 / 1.00273790935  # 0.5″/s
+    _wait_mount_seconds(rig, 6.0)
+    rig.scope.RightAscensionRate = 0.0
+    elapsed = rig.mount_seconds() - t0
+    _wait_mount_seconds(rig, 1.0)
+    d_ra = (((rig.model.position()[0] - before[0]) + 12.0) % 24.0 - 12.0) * 15.0 * 3600.0
+    assert d_ra == pytest.approx(0.5 * elapsed, abs=1.0)
+    rig.scope.Connected = False
+
+
 @pytest.mark.parametrize("stop", ["AbortSlew", "last client disconnects"])
 def test_a_stop_ends_a_pulse_and_the_mount_holds_still(rig: Rig, stop: str) -> None:
     """Safety: AbortSlew, and the last client going away, end a running alt-az pulse (a move that nobody

@@ -189,8 +189,14 @@ class OffsetsMixin:
                          guard: Callable[[], bool] | None = None) -> float: ...
 
     def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
-        """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east)."""
-        self.offsets.set_rate(axis, arcsec_per_s)
+        """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east).
+
+        Under ``_timed_lock``, which the alt-az modulator holds while its speed change is on the wire:
+        otherwise a client's zeroing (a reset) could land there, the modulator would book the speed it
+        had just set over it, a slew's stop would end that move unbooked, and the next offset would be
+        charged for the whole slew (a ConformU run: +0.05″/s measured as 69″/s)."""
+        with self._timed_lock:
+            self.offsets.set_rate(axis, arcsec_per_s)
         self._notify()
 
     def _tick_offsets(self, now: float, state: MountState) -> None:
@@ -200,6 +206,7 @@ class OffsetsMixin:
         own = [axis for axis in (0, 1) if axis not in self.timed_moves]
         drifting = any(self.mount.drift_rates[axis] for axis in own)
         if not offsets.active and not drifting:
+            offsets.reset()  # no offset, no move: nothing booked may outlive them
             return
         tracking = bool(state.tracking and state.tracking.on)
         if self.motion is not None or self.moves or not tracking or not offsets.active:

@@ -10,8 +10,10 @@ Lock rules (the reason this module exists):
 - ``_start_lock`` serialises motion *starts* (GOTO, MoveAxis, home, park, pulses). It may be held
   across serial I/O and waits. **Stop paths never take it.**
 - ``_lock`` guards this object's fields. It is never held across I/O or a wait.
-- ``_timed_lock`` makes starting or ending one alt-az timed pulse (``guiding.py``) a single step; it
-  is held across that one move command, never by ``abort`` (whose ``:Q#`` ends every move anyway).
+- ``_timed_lock`` makes starting or ending one alt-az timed pulse (``guiding.py``), and one speed
+  change of an alt-az offset move with its booking (``offsets.py``), a single step; it is held
+  across that one move command, never by ``abort`` (whose ``:Q#`` ends every move anyway). A
+  client's new rate offset takes it too, so it never lands between a speed change and its booking.
 - The link's write lock is held only for one ``write``. A stop bumps :attr:`generation` under
   ``_lock`` and then writes its reply-less ``:Q#`` through the link's urgent lane; every motion
   command carries a guard ("generation unchanged") that the link checks under its write lock right
