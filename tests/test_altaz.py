@@ -224,7 +224,7 @@ def test_rates_zeroed_during_a_speed_change_leave_nothing_owed_to_the_next_offse
     assert emulator is not None
     supervisor = rig.server.telescopes[0].motion
     _tracking_on_a_star(rig)
-    rig.scope.RightAscensionRate = -40.0 / 15.0 / 1.00273790935  # -40″/s: the step changes every cycle
+    rig.scope.RightAscensionRate = -40.0 / 15.0 / 1.00273790935  # -40″/s = 265.9 steps: 266 and 265 alternate
     _wait_mount_seconds(rig, 2.0)
     emulator.server.faults.stall(400)  # the poll in flight waits for its reply, and the speed change behind it
     wait_until(supervisor._timed_lock.locked, 5, "a speed change waiting on the stalled line", interval=0.001)
