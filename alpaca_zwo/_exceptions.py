@@ -16,6 +16,8 @@ ERR_LINK = 0x500  # the mount link is down or failed
 ERR_MOUNT_REFUSED = 0x501  # the mount answered eN# or a refusal byte
 ERR_MOUNT_PROTOCOL = 0x502  # the mount's reply was garbled
 ERR_TIMEOUT = 0x503  # the mount did not confirm or finish in time
+ERR_INTERRUPTED = 0x504  # a synchronous slew was stopped or replaced by another client before it arrived
+ERR_SETTINGS_NOT_SAVED = 0x510  # the settings file could not be written (disk full, read-only): nothing changed
 
 
 class AlpacaZwoError(Exception):
@@ -56,6 +58,18 @@ class MotionCancelled(AlpacaZwoError):
 
 class ConfigError(AlpacaZwoError):
     """Raised when a configuration file or command-line value is invalid; names file, key and reason."""
+
+
+class ConfigWriteError(ConfigError):
+    """Raised when the settings file cannot be written (full disk, read-only or missing directory).
+
+    The message names the file (for the log and the command line); ``reason`` is the operating
+    system's words alone, which is all an HTTP reply may repeat.
+    """
+
+    def __init__(self, message: str, reason: str) -> None:
+        super().__init__(message)
+        self.reason = reason
 
 
 class AlpacaError(AlpacaZwoError):
@@ -116,6 +130,12 @@ class DriverError(AlpacaError):
     """Raised when the mount or its link failed to carry out a request (ASCOM 0x500 and up)."""
 
     number = 0x500
+
+
+class SettingsNotSaved(DriverError):
+    """Raised when a change could not be saved: the running server and the file both kept the old values."""
+
+    number = ERR_SETTINGS_NOT_SAVED
 
 
 def driver_error(what: str, exc: Exception) -> DriverError:

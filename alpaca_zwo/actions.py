@@ -140,7 +140,8 @@ def _refuse_in_altaz(telescope: Telescope, action: str) -> None:
 def _save(telescope: Telescope, action: str, section: str, values: Mapping[str, object]) -> Settings:
     """Persist configuration values through the settings store, as the setup page does.
 
-    The store validates before it writes, so a refused value leaves both file and memory as they were.
+    The store validates before it writes, so a refused value (InvalidValue) leaves both file and
+    memory as they were; so does a failed write (SettingsNotSaved, a DriverError: not the client's value).
     """
 
     def change(current: Settings) -> Settings:
@@ -196,10 +197,17 @@ def _write_meridian(telescope: Telescope, changes: Reply) -> None:
     wanted = MeridianSettings(flip=current.flip,  # "temporarily not supported" by ZWO: kept as it is
                               track_after=changes.get("track_past", current.track_after),
                               limit_degrees=changes.get("limit_degrees", current.limit_degrees))
-    telescope.set_meridian_settings(wanted)  # the Telescope remembers it for DestinationSideOfPier
-    # Mirrored in the configuration, which is pushed to the mount on every connect.
+    # Mirrored in the configuration, which is pushed to the mount on every connect. Saved first: a
+    # failed save (full disk) then changes nothing; if the mount refuses, the file is put back.
+    limits = telescope.settings.limits
+    before = {"meridian_track_past": limits.meridian_track_past, "meridian_limit_deg": limits.meridian_limit_deg}
     _save(telescope, "zwo:MeridianSettings", "limits", {"meridian_track_past": wanted.track_after,
-                                "meridian_limit_deg": wanted.limit_degrees})
+                                                        "meridian_limit_deg": wanted.limit_degrees})
+    try:
+        telescope.set_meridian_settings(wanted)  # the Telescope remembers it for DestinationSideOfPier
+    except Exception:
+        _save(telescope, "zwo:MeridianSettings", "limits", before)
+        raise
 
 
 def _read_altitude_limits(telescope: Telescope) -> Reply:
@@ -228,8 +236,8 @@ def _fresh_status(telescope: Telescope) -> tuple[str, MountStatus]:
     return raw, parse_status(raw[:-1] if raw.endswith("#") else raw)
 
 
-def _read_mode(telescope: Telescope) -> Reply:
-    current = _fresh_status(telescope)[1].mode
+def _read_mode(telescope: Telescope, status: MountStatus | None = None) -> Reply:
+    current = (status or _fresh_status(telescope)[1]).mode
     requested = _requested_modes.get(telescope, current)
     if requested is current:
         _requested_modes.pop(telescope, None)  # in effect now (the mount was restarted) or never changed
@@ -253,9 +261,10 @@ def request_mode(telescope: Telescope, name: str) -> None:
     log.warning("mount mode %s requested: the mount must be restarted for it to take effect", name)
 
 
-def mode_report(telescope: Telescope) -> Reply:
-    """The zwo:MountMode reply (current mode, requested mode, restart_required and its message)."""
-    return _read_mode(telescope)
+def mode_report(telescope: Telescope, status: MountStatus | None = None) -> Reply:
+    """The zwo:MountMode reply (current mode, requested mode, restart_required and its message); from
+    ``status`` when given (the setup page passes the poller's, so its GET costs no exchange), else ``:GU#`` now."""
+    return _read_mode(telescope, status)
 
 
 def _read_info(telescope: Telescope) -> Reply:
@@ -354,6 +363,9 @@ def _changes(action: ZwoAction, parameters: str) -> Reply:
     except ValueError as exc:
         raise InvalidValue(f"{action.name}: Parameters must be a JSON object such as {action.example}, "
                            f"or empty to read ({exc})") from None
+    except RecursionError:  # json's decoder stops at ~1000 levels; no action takes more than two
+        raise InvalidValue(f"{action.name}: Parameters are nested too deeply; it takes a JSON object such as "
+                           f"{action.example}") from None
     if not isinstance(given, dict):
         raise InvalidValue(f"{action.name}: Parameters must be a JSON object such as {action.example}, "
                            f"not {json.dumps(given)[:60]}")

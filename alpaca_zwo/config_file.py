@@ -17,7 +17,7 @@ from typing import Any
 import platformdirs
 import tomli_w
 
-from ._exceptions import ConfigError
+from ._exceptions import ConfigError, ConfigWriteError
 from .config import Settings, assign_unique_ids, settings_from_dict, settings_to_dict, validate_settings
 
 if sys.version_info >= (3, 11):
@@ -115,7 +115,9 @@ def save_settings(settings: Settings, path: Path | None = None) -> None:
         os.replace(tmp_name, path)
         tmp_name = None
     except OSError as exc:
-        raise ConfigError(f"{path}: cannot write: {exc.strerror or exc}") from exc
+        # mkdir(exist_ok=True) says "File exists" when a file stands where the folder should be.
+        reason = "its folder is a file" if isinstance(exc, FileExistsError) else exc.strerror or type(exc).__name__
+        raise ConfigWriteError(f"{path}: cannot write: {reason}", reason) from exc
     finally:
         if tmp_name is not None:
             with contextlib.suppress(OSError):

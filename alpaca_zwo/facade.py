@@ -26,7 +26,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from . import __version__
-from ._exceptions import AlpacaError, ConfigError, InvalidValue, LinkError, MountReplyError, ProtocolError
+from ._exceptions import (
+    AlpacaError,
+    ConfigError,
+    InvalidValue,
+    LinkError,
+    MountReplyError,
+    ProtocolError,
+    SettingsNotSaved,
+)
 from .clients import ClientActivity, ClientKey, current_client
 from .config import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .link import LinkCounters, LinkStatus, TraceEntry
@@ -101,8 +109,6 @@ class DeviceFacade:
         self.index = index
         self._telescope = telescope
         self._server = server
-        # The last settings read from the mount: shown (and used for the flip countdown) while it is away.
-        self._mount_settings: MountSettings | None = None
 
     # -- identity and snapshots ------------------------------------------------------------------
 
@@ -171,19 +177,21 @@ class DeviceFacade:
 
     @property
     def cached_mount_settings(self) -> MountSettings | None:
-        return self._mount_settings
+        """The settings stored in the mount as last read (kept while it is away; None if never read).
+
+        No serial exchange: the mount keeps this copy fresh on every change that goes through the
+        server, after each (re)connect and by a slow periodic re-read (``settings_cache.py``), so the
+        settings view and the status feed cost the line nothing however many pages are open.
+        """
+        return self._telescope.mount.settings
 
     def read_mount_settings(self) -> MountSettings | None:
-        """The settings stored in the mount, read now (a few short queries).
-
-        Without a link the last ones read are returned (None if never read); the status poll never
-        calls this, only the settings view does.
-        """
+        """The settings stored in the mount, read now (eight short queries): only after the page has
+        written one, so its reply shows what the mount really took. Without a link, the cached ones."""
         mount = self._telescope.mount
         if not mount.running or not mount.link.status.connected:
-            return self._mount_settings
-        self._mount_settings = mount.read_settings()
-        return self._mount_settings
+            return mount.settings
+        return mount.read_settings()
 
     def apply_mount_setting(self, name: str, value: Any) -> None:
         """Write one mount-held setting: meridian, upper_limit, lower_limit, limits_enabled, heavy_duty, buzzer,
@@ -203,24 +211,19 @@ class DeviceFacade:
 
     def mount_mode(self) -> dict[str, Any] | None:
         """The mode now in effect, the one requested and, while they differ, the warning that the mount
-        must be restarted (the zwo:MountMode reply); None without a link (it reads ``:GU#`` fresh)."""
+        must be restarted (the zwo:MountMode reply); None without a link. From the poller's last ``:GU#``
+        (at most a poll interval old), not a fresh one: the settings view costs the line nothing."""
         mount = self._telescope.mount
-        if not mount.running or not mount.link.status.connected:
+        status = mount.state.status
+        if not mount.running or not mount.link.status.connected or status is None:
             return None
         from .actions import mode_report
 
-        try:
-            return mode_report(self._telescope)
-        except AlpacaError:
-            return None
+        return mode_report(self._telescope, status)
 
     def set_site(self, values: Mapping[str, float]) -> None:
         """Through the Telescope, so the mount gets the new site at once and clients read the same values."""
-        t = self._telescope
-        setters: dict[str, Callable[[float], None]] = {
-            "latitude": t.set_site_latitude, "longitude": t.set_site_longitude, "elevation": t.set_site_elevation}
-        for key, value in values.items():
-            setters[key](value)
+        self._telescope.set_site(values)
 
     # -- controls (run with the caller's client key set in ``current_client``) --------------------
 
@@ -356,6 +359,7 @@ __all__ = [
     "ProtocolError",
     "ServerFacade",
     "Settings",
+    "SettingsNotSaved",
     "StatusSource",
     "current_client",
     "equatorial_to_horizontal",

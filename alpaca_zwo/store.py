@@ -12,6 +12,7 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
+from ._exceptions import ConfigWriteError, SettingsNotSaved
 from .config import Settings, validate_settings
 from .config_file import save_settings
 
@@ -36,12 +37,25 @@ class SettingsStore:
         return self._path
 
     def update(self, change: Callable[[Settings], Settings]) -> Settings:
-        """Apply ``change`` to the current settings, validate, save, then tell the listeners."""
+        """Apply ``change`` to the current settings, validate, save, then tell the listeners.
+
+        Save first, publish after: if the file cannot be written (full disk, read-only directory)
+        SettingsNotSaved (an ASCOM DriverError) is raised and both the file and the live settings
+        keep the old values, so callers that apply a change elsewhere (the mount) do so only after
+        this returns. Its message carries the system's reason but never the file's path (it goes
+        into HTTP replies); the log gets the path.
+        """
         with self._lock:
             updated = change(self._settings)
-            validate_settings(updated, self._path or "<settings>")
+            validate_settings(updated, "settings")  # a label, not the path: the message may reach a client
             if self._path is not None:
-                save_settings(updated, self._path)
+                try:
+                    save_settings(updated, self._path)
+                except ConfigWriteError as exc:
+                    log.error("settings not saved: %s", exc)
+                    raise SettingsNotSaved(f"the settings could not be saved ({exc.reason}): nothing was "
+                                           "changed, the server and its settings file keep the previous "
+                                           "values") from None
             self._settings = updated
             listeners = list(self._listeners)
         for listener in listeners:

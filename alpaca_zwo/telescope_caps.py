@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 from ._exceptions import (
@@ -82,7 +83,8 @@ class CapabilitiesMixin:
         return True
 
     def can_set_pier_side(self) -> bool:
-        return False
+        """A German mount flips on a SideOfPier write (motion/flip.py); an alt-az mount has no pier side."""
+        return not self.mount.state.altaz
 
     def can_set_declination_rate(self) -> bool:
         return True  # paid in guide pulses, which are timed moves in alt-az (motion/guiding.py)
@@ -203,8 +205,28 @@ class CapabilitiesMixin:
             raise InvalidValue(f"SiteElevation {value} is outside -300..10000 m")
         self._update_site(elevation=value)
 
+    def set_site(self, values: Mapping[str, float]) -> None:
+        """Several site values (latitude, longitude, elevation) in one save: all applied or none (setup page)."""
+        unknown = set(values) - {"latitude", "longitude", "elevation"}
+        if unknown:
+            raise InvalidValue(f"unknown site value(s): {', '.join(sorted(unknown))}")
+        self._check_site(**values)
+        self._update_site(**values)
+
+    @staticmethod
+    def _check_site(latitude: float = 0.0, longitude: float = 0.0, elevation: float = 0.0) -> None:
+        for name, value, low, high in (("SiteLatitude", latitude, -90.0, 90.0),
+                                       ("SiteLongitude", longitude, -180.0, 180.0),
+                                       ("SiteElevation", elevation, -300.0, 10000.0)):
+            if not low <= value <= high:
+                raise InvalidValue(f"{name} {value} is outside {low:g}..{high:g}")
+
     def _update_site(self, **changes: float) -> None:
-        """Keep the exact values clients wrote (they read back with ==); the mount gets arcseconds."""
+        """Keep the exact values clients wrote (they read back with ==); the mount gets arcseconds.
+
+        Saved first, pushed to the mount after: a failed save (SettingsNotSaved) changes nothing; a
+        mount that then fails to take it keeps the old site until the next connect pushes the saved one.
+        """
         site = dataclasses.replace(self.settings.site, **changes)
         self.store.update(lambda s: dataclasses.replace(s, site=site))
         if self.mount.running and ("latitude" in changes or "longitude" in changes):

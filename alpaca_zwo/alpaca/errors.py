@@ -41,9 +41,13 @@ def handle_http_error(req: falcon.Request, resp: falcon.Response, ex: falcon.HTT
 
 
 def handle_unexpected(req: falcon.Request, resp: falcon.Response, ex: Exception, params: Any) -> None:
-    """A bug: log the traceback, answer 500, and keep serving (waitress threads survive)."""
+    """A bug: log the traceback, answer 500, and keep serving (waitress threads survive).
+
+    The reply names only the exception's type: its text may hold a file path or other internals,
+    which belong in the log, not in a reply any host on the network can read.
+    """
     log.error("Unhandled error in %s %s", req.method, req.path, exc_info=ex)
-    _reply(req, resp, 500, f"Internal server error: {type(ex).__name__}: {ex}")
+    _reply(req, resp, 500, f"Internal server error ({type(ex).__name__}); the server log has the details")
 
 
 def unmatched(req: falcon.Request, resp: falcon.Response, **_: Any) -> None:

@@ -10,7 +10,7 @@ import dataclasses
 import json
 import logging
 from collections.abc import Callable
-from datetime import datetime
+from datetime import datetime, timezone
 from typing import Any
 
 import falcon
@@ -43,6 +43,10 @@ def _set_time(d: DeviceFacade, body: dict[str, Any]) -> dict[str, Any]:
         raise ApiError(400, f"utc {raw!r} is not an ISO 8601 date and time") from None
     if value.tzinfo is None:
         raise ApiError(400, "utc must say its zone (end it with Z)")
+    try:
+        value = value.astimezone(timezone.utc)  # year 1 at +23:59 is before the first datetime
+    except OverflowError:
+        raise ApiError(400, f"utc {raw!r} is outside the years 1 to 9999 once converted to UTC") from None
     return {"utc": iso(d.set_utc(value))}
 
 

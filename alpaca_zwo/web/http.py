@@ -19,7 +19,16 @@ from urllib.parse import urlsplit
 
 import falcon
 
-from ..facade import AlpacaError, ClientKey, ConfigError, InvalidValue, LinkError, MountReplyError, ProtocolError
+from ..facade import (
+    AlpacaError,
+    ClientKey,
+    ConfigError,
+    InvalidValue,
+    LinkError,
+    MountReplyError,
+    ProtocolError,
+    SettingsNotSaved,
+)
 
 #: Header every state-changing request must carry; a cross-site form or image cannot add it.
 CSRF_HEADER = "X-Alpaca-Zwo"
@@ -68,7 +77,10 @@ def text_download(resp: falcon.Response, text: str, stem: str) -> None:
 
 
 def _http_status(exc: AlpacaError) -> int:
-    """A bad value is the user's to fix (400); anything else is the mount's state (409)."""
+    """A bad value is the user's to fix (400); a failed save is the server's storage (507, "Insufficient
+    Storage": the disk is full or read-only); anything else is the mount's state (409)."""
+    if isinstance(exc, SettingsNotSaved):
+        return 507
     return 400 if isinstance(exc, InvalidValue) else 409
 
 
@@ -135,6 +147,8 @@ def read_json(req: falcon.Request, limit: int) -> dict[str, Any]:
         body = json.loads(raw)
     except (UnicodeDecodeError, ValueError) as exc:
         raise ApiError(400, f"the request body is not valid JSON: {exc}") from None
+    except RecursionError:  # json's C decoder gives up on ~1000 levels: refuse, as nothing here nests deeply
+        raise ApiError(400, "the request body is nested too deeply") from None
     if not isinstance(body, dict):
         raise ApiError(400, "the request body must be a JSON object")
     return body

@@ -4,8 +4,9 @@ A change is a JSON object of groups. Each group has one entry in a table: the fi
 (``site``, ``park``, ``limits``, ``safety``, ``device``) are merged into the settings file, the
 mount-held ones (``meridian``, ``mount_limits``, ``heavy_duty``, ``buzzer``, ``mode``) become checked
 commands for the mount. Everything is checked before anything is applied, so a typo in one field
-never leaves the mount changed and the file not (or the reverse). The mount goes first because it
-is the one that can still refuse; the file is then written in one atomic update.
+never leaves the mount changed and the file not (or the reverse). The file is written first, in one
+atomic update, so a failed save (full disk) changes nothing; if the mount then refuses, the file
+groups are put back.
 """
 
 from __future__ import annotations
@@ -139,22 +140,47 @@ def _merged(change: SettingsChange, index: int) -> Callable[[Settings], Settings
     return merge
 
 
+def _restored(change: SettingsChange, index: int, previous: Settings) -> Callable[[Settings], Settings]:
+    """Put back the file groups ``change`` wrote (after the mount refused), leaving any others as they are."""
+    old = settings_to_dict(previous)
+
+    def restore(current: Settings) -> Settings:
+        data = settings_to_dict(current)
+        for name in change.file_groups:
+            data[name] = old[name]
+        if change.device is not None:
+            data["devices"][index] = old["devices"][index]
+        return settings_from_dict(data, "setup page")
+
+    return restore
+
+
 def change_settings(web: WebContext, device: DeviceFacade, body: dict[str, Any]) -> MountSettings | None:
-    """Apply the groups present in ``body``, all or nothing as far as validation can tell."""
+    """Apply the groups present in ``body``, all or nothing as far as validation can tell.
+
+    Order: check everything, save the file, then set the mount and the site. A save that fails
+    (full disk, read-only directory) therefore changes nothing (SettingsNotSaved, HTTP 507); a mount
+    that refuses gets the file groups put back before the error is shown.
+    """
     change = plan_change(device, body)
     merge = _merged(change, device.index)
     with web.settings_lock:
+        previous = web.facade.settings
         if change.touches_file:
             try:
-                merge(web.facade.settings)  # dry run: refuse bad values before the mount is touched
+                merge(previous)  # dry run: refuse bad values before anything is touched
             except (TypeError, ValueError) as exc:
                 raise ApiError(400, f"invalid setting: {exc}") from None
-        for name, value in change.mount:
-            device.apply_mount_setting(name, value)
-        if change.touches_file:
             web.facade.update_settings(merge)
-        if change.site:
-            device.set_site(change.site)
+        try:
+            for name, value in change.mount:
+                device.apply_mount_setting(name, value)
+            if change.site:
+                device.set_site(change.site)
+        except Exception:
+            if change.touches_file:
+                web.facade.update_settings(_restored(change, device.index, previous))
+            raise
     mount_held = any(name in body for name in MOUNT_GROUPS)
     return device.read_mount_settings() if mount_held else device.cached_mount_settings
 
@@ -192,12 +218,16 @@ def _mount_view(mount: MountSettings | None) -> dict[str, Any] | None:
 
 
 class SettingsResource(Resource):
-    """``/setup/api/telescope/{number}/settings``: GET reads (the mount's own settings too), POST changes."""
+    """``/setup/api/telescope/{number}/settings``: GET reads (the mount's own settings too), POST changes.
+
+    The GET sends nothing to the mount: its settings come from the copy the server keeps
+    (``DeviceFacade.cached_mount_settings``), so any number of open pages cost the serial line nothing.
+    """
 
     def on_get(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
         with api_errors(resp):
             device = self.web.device(number)
-            send(resp, settings_view(self.web.facade, device, device.read_mount_settings()))
+            send(resp, settings_view(self.web.facade, device, device.cached_mount_settings))
 
     def on_post(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
         check_same_origin(req)
