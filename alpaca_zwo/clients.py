@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextvars
 import threading
 import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 
@@ -42,11 +43,34 @@ class ClientActivity:
 
 @dataclass
 class ClientRegistry:
-    """Last-seen times per client, bounded so a scanner cycling ClientIDs cannot grow it forever."""
+    """Last-seen times per client, bounded so a scanner cycling ClientIDs cannot grow it forever.
+
+    The bound evicts the least recently seen client, except one a protector names: the MoveAxis
+    watchdog judges a move's owner by its last-seen time, so churn from other ClientIDs must not
+    erase the owner of a running move (issue 23, item 2).
+    """
 
     max_clients: int = 256
     _clients: dict[ClientKey, ClientActivity] = field(default_factory=dict)
     _lock: threading.Lock = field(default_factory=threading.Lock)
+    _protectors: list[Callable[[], Iterable[ClientKey]]] = field(default_factory=list)
+
+    def protect(self, owners: Callable[[], Iterable[ClientKey]]) -> None:
+        """Never evict the keys ``owners()`` names (called under the registry lock: it must not block)."""
+        with self._lock:
+            self._protectors.append(owners)
+
+    def unprotect(self, owners: Callable[[], Iterable[ClientKey]]) -> None:
+        with self._lock:
+            if owners in self._protectors:
+                self._protectors.remove(owners)
+
+    def _evict_one(self) -> None:
+        """Drop the least recently seen unprotected client (none if every entry is protected)."""
+        kept = {key for owners in self._protectors for key in owners()}
+        candidates = [a for a in self._clients.values() if a.key not in kept]
+        if candidates:
+            del self._clients[min(candidates, key=lambda a: a.last_seen).key]
 
     def touch(self, key: ClientKey, user_agent: str = "", now: float | None = None) -> None:
         stamp = time.monotonic() if now is None else now
@@ -54,8 +78,7 @@ class ClientRegistry:
             activity = self._clients.get(key)
             if activity is None:
                 if len(self._clients) >= self.max_clients:
-                    oldest = min(self._clients.values(), key=lambda a: a.last_seen)
-                    del self._clients[oldest.key]
+                    self._evict_one()
                 activity = ClientActivity(key, stamp, stamp, 0, user_agent)
                 self._clients[key] = activity
             activity.last_seen = stamp

@@ -115,6 +115,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         self._readings: deque[Reading] = deque(maxlen=8)
         self._stop_pending = ""  # why a safety stop is still owed to the mount ('' = none)
         self._stopped = threading.Event()
+        registry.protect(self.move_owners)  # the watchdog needs every owner's last-seen time
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
@@ -127,6 +128,10 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
 
     def pulse_guiding(self) -> bool:
         return bool(self.pulses)
+
+    def move_owners(self) -> list[ClientKey]:
+        """The clients whose MoveAxis runs (the registry never evicts them); takes no lock."""
+        return [move.owner for move in list(self.moves.values()) if move.owner is not None]
 
     # -- stops (no lock held across I/O; never waits) ------------------------------------------
 
@@ -352,6 +357,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
     # -- the supervisor thread -----------------------------------------------------------------
 
     def close(self) -> None:
+        self.registry.unprotect(self.move_owners)
         self._stopped.set()
         self._notify()
         self._thread.join(timeout=2)
@@ -473,14 +479,16 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
     # -- watchdog and limits -------------------------------------------------------------------
 
     def _tick_watchdog(self) -> None:
-        """Stop a MoveAxis whose client stopped talking."""
+        """Stop a MoveAxis whose client stopped talking, or that the server cannot find (counts as silent)."""
         limit = self._settings().safety.moveaxis_watchdog_s
         now = time.monotonic()
         for axis, move in list(self.moves.items()):
             if move.owner is None:
                 continue
             seen = self.registry.last_seen(move.owner)
-            if seen is not None and now - seen > limit:
+            if seen is None:
+                self.stop_axis(axis, f"client {move.owner} went silent (no longer known to the server) during MoveAxis")
+            elif now - seen > limit:
                 self.stop_axis(axis, f"client {move.owner} went silent for {now - seen:.0f} s during MoveAxis")
 
 
