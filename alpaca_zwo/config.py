@@ -13,6 +13,7 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import difflib
+import ipaddress
 import itertools
 import math
 import os
@@ -160,6 +161,28 @@ def _horizon(value: Any) -> tuple[tuple[float, float], ...]:
     return tuple(points)
 
 
+def _host_names(value: Any) -> tuple[str, ...]:
+    """``server.allowed_hosts``: host names (no scheme, port or spaces), or "*" to allow any."""
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+        raise _Invalid(f"must be an array of host names, not {_kind(value)}")
+    for name in value:
+        if not name or len(name) > 253 or any(c.isspace() or not c.isprintable() for c in name):
+            raise _Invalid(f"{name!r} is not a host name (no spaces or control characters, 1 to 253 characters)")
+        if "/" in name or "@" in name:
+            raise _Invalid(f"{name!r} is not a host name: give the name alone, like 'astropi.example.org'")
+        if ":" in name and not _is_ipv6(name):
+            raise _Invalid(f"{name!r}: give the name without a port (the port is never checked)")
+    return tuple(value)
+
+
+def _is_ipv6(name: str) -> bool:
+    try:
+        ipaddress.IPv6Address(name.removeprefix("[").removesuffix("]").split("%", 1)[0])
+    except ValueError:
+        return False
+    return True
+
+
 def _setting(default: Any, check: Check) -> Any:
     """A dataclass field whose metadata carries the check used when loading."""
     return field(default=default, metadata={"check": check})
@@ -178,10 +201,15 @@ class ServerSettings:
     mdns: bool = _setting(False, _bool)
     threads: int = _setting(16, _int(1, 256))
     max_body_bytes: int = _setting(65536, _int(1024, 16 * 1024 * 1024))
+    # Open HTTP connections one remote address may hold (waitress serves 1000 in all); 0 = no limit.
+    max_connections_per_address: int = _setting(64, _int(0, 1000))
     basic_auth_user: str = _setting("", _str(pattern=r"[^:]+", hint="a name without ':'"))
     basic_auth_password: str = _setting("", _str())  # both empty = no authentication
     allow_raw_commands: bool = _setting(False, _bool)
     location: str = _setting("", _str())
+    #: Host names the server answers to besides its own (hosts.py: IP addresses, localhost, the
+    #: hostname, <hostname>.local, <hostname>.<domain>); ["*"] answers to any (no DNS-rebinding guard).
+    allowed_hosts: tuple[str, ...] = _setting((), _host_names)
 
 
 @dataclass(frozen=True, kw_only=True)

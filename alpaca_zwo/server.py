@@ -16,6 +16,7 @@ from typing import Any
 
 from . import __version__
 from .alpaca.app import create_app
+from .alpaca.hosts import HostGuard
 from .alpaca.http import HttpServer
 from .alpaca.management import ServerInfo
 from .clients import ClientRegistry
@@ -87,6 +88,9 @@ class AlpacaZwoServer:
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
         self._extra_routes_factory = extra_routes_factory
         self._facade: ServerFacade | None = None
+        #: The DNS-rebinding guard; follows server.allowed_hosts live (no restart).
+        self.host_guard = HostGuard(store.settings.server.allowed_hosts)
+        store.subscribe(lambda settings: self.host_guard.set_allowed(settings.server.allowed_hosts))
         self._stopped = threading.Event()
 
     @property
@@ -139,13 +143,14 @@ class AlpacaZwoServer:
         auth = (server.basic_auth_user, server.basic_auth_password) if server.basic_auth_user else None
         extra = self._extra_routes_factory(self) if self._extra_routes_factory else []
         app = create_app(self.telescopes, self.registry, info, max_body_bytes=server.max_body_bytes,
-                         basic_auth=auth, extra_routes=extra)
+                         basic_auth=auth, extra_routes=extra, host_guard=self.host_guard)
         host = self.overrides.host or server.host
         port = server.port if self.overrides.port is None else self.overrides.port
         # waitress refuses oversize bodies before reading them in; the app checks again per request.
         # waitress counts a body at the limit as too large; the app's own check enforces the exact limit.
         self.http = HttpServer(app, host, port, threads=server.threads,
-                               max_request_body_size=server.max_body_bytes + 1)
+                               max_request_body_size=server.max_body_bytes + 1,
+                               max_connections_per_address=server.max_connections_per_address)
         logging.getLogger("waitress.queue").setLevel(logging.ERROR)  # "task queue depth" under load is expected
         self.http.start()
         self._start_stellarium()

@@ -29,6 +29,7 @@ from alpaca_zwo.alpaca.errors import (
     log,
     unmatched,
 )
+from alpaca_zwo.alpaca.hosts import HostGuard
 from alpaca_zwo.alpaca.management import ServerInfo, management_routes
 from alpaca_zwo.alpaca.members import DEVICE_MEMBERS, Member, Param
 from alpaca_zwo.alpaca.params import PARSERS, BadRequest, form_fields, missing, parse_id, query_fields
@@ -232,13 +233,53 @@ class BasicAuth:
                                       challenges=['Basic realm="alpaca-zwo", charset="UTF-8"'])
 
 
+class HostCheck:
+    """Refuse (403, one line saying what to do) a request that names a host this server is not.
+
+    The guard against DNS rebinding (see :mod:`alpaca_zwo.alpaca.hosts`). Every request is judged
+    (Alpaca GETs too: they read the site's coordinates as the setup page does) except GET/HEAD of
+    the open paths: the page and its files, which hold nothing private, so a person who opened the
+    page by an unknown name sees the refusal of its first API call, saying what to do. It runs
+    before basic auth, so a rebinding page never makes the browser ask for the password.
+    """
+
+    def __init__(self, guard: HostGuard, open_paths: Iterable[str] = ()) -> None:
+        self._guard = guard
+        self._exact = frozenset(p for p in open_paths if not p.endswith("/"))
+        self._prefixes = tuple(p for p in open_paths if p.endswith("/"))
+        self._reported: set[str] = set()
+
+    def process_request(self, req: falcon.Request, resp: falcon.Response) -> None:
+        if req.method in _READS and (req.path in self._exact or req.path.startswith(self._prefixes)):
+            return
+        reason = self._guard.refusal(req.get_header("Host"), req.get_header("Origin"))
+        if reason is not None:
+            if reason not in self._reported:  # once per refusal: a looping page must not flood the log
+                if len(self._reported) >= 64:
+                    self._reported.clear()
+                self._reported.add(reason)
+                log.warning("%s %s from %s: %s", req.method, req.path, req.remote_addr, reason)
+            raise falcon.HTTPForbidden(description=reason)
+
+
+_READS = frozenset({"GET", "HEAD"})
+
+
+def _open_paths(routes: Iterable[tuple[str, object]]) -> list[str]:
+    """The paths of routes whose resource says ``any_host = True``: a template's fixed part, up to its
+    first field (``/setup/static/{name}`` -> ``/setup/static/``)."""
+    return [template.partition("{")[0] for template, resource in routes if getattr(resource, "any_host", False)]
+
+
 def create_app(devices: Sequence[AlpacaDevice], registry: ClientRegistry, info: ServerInfo, *,
                max_body_bytes: int = 65536, basic_auth: tuple[str, str] | None = None,
-               extra_routes: Iterable[tuple[str, object]] = ()) -> falcon.App[falcon.Request, falcon.Response]:
+               extra_routes: Iterable[tuple[str, object]] = (),
+               host_guard: HostGuard | None = None) -> falcon.App[falcon.Request, falcon.Response]:
     """Build the WSGI app serving ``devices`` as telescope 0, 1, ... plus the management API.
 
     ``extra_routes`` are ``(uri_template, resource)`` pairs mounted as-is (e.g. the /setup pages);
-    they share basic auth and the plain-text error replies.
+    they share basic auth, the host check and the plain-text error replies. ``host_guard`` None
+    serves any Host (tests of other layers); the server always passes one.
     """
     members = DEVICE_MEMBERS[DEVICE_TYPE]
     for number, device in enumerate(devices):
@@ -247,7 +288,10 @@ def create_app(devices: Sequence[AlpacaDevice], registry: ClientRegistry, info: 
             raise TypeError(f"device {number} ({type(device).__name__}) lacks {', '.join(lacking)}")
 
     counter = TransactionCounter()
-    middleware = [BasicAuth(*basic_auth)] if basic_auth else []
+    extra_routes = list(extra_routes)
+    middleware: list[HostCheck | BasicAuth] = [HostCheck(host_guard, _open_paths(extra_routes))] if host_guard else []
+    if basic_auth:
+        middleware.append(BasicAuth(*basic_auth))
     app = falcon.App(middleware=middleware)
     api = DeviceApi(devices, registry, counter, max_body_bytes)
     app.add_route("/api/v1/{device_type}/{device_number}/{member}", api)

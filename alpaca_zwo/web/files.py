@@ -49,6 +49,10 @@ class StaticFiles:
     absolute path nor a link planted in the directory can reach anything else.
     """
 
+    #: Served whatever Host names (the app's host check skips its GETs): nothing here is private,
+    #: and a page opened by an unknown name then shows why its API calls are refused.
+    any_host = True
+
     def __init__(self, root: Path) -> None:
         self.root = root.resolve()
 
@@ -87,6 +91,8 @@ class StaticFiles:
 class SetupPage:
     """``GET /setup``: the whole-server page (it shows device 0 and lets the user pick another)."""
 
+    any_host = True  # as StaticFiles
+
     def __init__(self, files: StaticFiles) -> None:
         self._files = files
 
@@ -96,6 +102,8 @@ class SetupPage:
 
 class DeviceSetupPage:
     """``GET /setup/v1/{device_type}/{device_number}/{page}``: 403 for anything but our telescopes' ``setup``."""
+
+    any_host = True  # as StaticFiles
 
     def __init__(self, facade: ServerFacade, files: StaticFiles) -> None:
         self._facade = facade
