@@ -304,6 +304,10 @@ class ServerFacade:
     def config_file(self) -> Path | None:
         return self._server.store.path
 
+    def host_names(self) -> list[str]:
+        """The names the DNS-rebinding guard allows without server.allowed_hosts (for the page)."""
+        return self._server.host_guard.policy.always_allowed()
+
     @property
     def port(self) -> int:
         return self._server.port

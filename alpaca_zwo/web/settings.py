@@ -41,7 +41,9 @@ FILE_GROUPS = ("site", "park", "limits", "safety", "device")
 #: What each site key may be; checked before anything is saved, so a bad longitude cannot leave a
 #: new latitude half-applied.
 SITE_RANGES = {"latitude": (-90.0, 90.0), "longitude": (-180.0, 180.0), "elevation": (-300.0, 10000.0)}
-SERVER_KEYS = frozenset({"host", "port", "discovery_port", "mdns", "location"})
+SERVER_KEYS = frozenset({"host", "port", "discovery_port", "mdns", "location", "allowed_hosts"})
+#: Server keys in effect at once (the host guard follows the store); the others after a restart.
+LIVE_SERVER_KEYS = frozenset({"allowed_hosts"})
 
 MountCommand = tuple[str, Any]
 #: A mount-held group's checker: (device, the group's value) -> the commands to send, in order.
@@ -255,6 +257,9 @@ def server_view(facade: ServerFacade) -> dict[str, Any]:
         "discovery_port": facade.discovery_port,
         "configured": {"host": net.host, "port": net.port, "discovery_port": net.discovery_port,
                        "mdns": net.mdns},
+        # The DNS-rebinding guard: names added by the user ("*": no guard) and those always allowed.
+        "allowed_hosts": list(net.allowed_hosts),
+        "host_names": facade.host_names(),
         "config_file": str(facade.config_file) if facade.config_file else None,
         "basic_auth": bool(net.basic_auth_user),
         "devices": [{"number": d.index, "name": d.name, "unique_id": d.unique_id} for d in facade.devices()],
@@ -273,7 +278,12 @@ def change_server(facade: ServerFacade, body: dict[str, Any]) -> None:
         return settings_from_dict(data, "setup page")
 
     facade.update_settings(change)
-    log.info("setup page: server settings changed (%s); they apply after a restart", ", ".join(sorted(body)))
+    when = "after a restart" if restart_required(body) else "now"
+    log.info("setup page: server settings changed (%s); in effect %s", ", ".join(sorted(body)), when)
+
+
+def restart_required(body: dict[str, Any]) -> bool:
+    return bool(set(body) - LIVE_SERVER_KEYS)
 
 
 class ServerResource(Resource):
@@ -285,5 +295,6 @@ class ServerResource(Resource):
     def on_post(self, req: falcon.Request, resp: falcon.Response) -> None:
         check_same_origin(req)
         with api_errors(resp):
-            change_server(self.web.facade, self.body(req))
-            send(resp, {**server_view(self.web.facade), "restart_required": True})
+            body = self.body(req)
+            change_server(self.web.facade, body)
+            send(resp, {**server_view(self.web.facade), "restart_required": restart_required(body)})
