@@ -58,7 +58,9 @@ Reply = dict[str, Any]
 
 
 def _is_number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if isinstance(value, int) and not isinstance(value, bool):
+        return abs(value) < 2**63  # a 400-digit integer cannot become a float (OverflowError)
+    return isinstance(value, float) and math.isfinite(value)
 
 
 def _integer(low: int, high: int) -> Callable[[object], int]:

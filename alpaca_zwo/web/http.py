@@ -132,6 +132,20 @@ def check_same_origin(req: falcon.Request) -> None:
             raise falcon.HTTPForbidden(description=f"Refused: request from origin {origin!r}, not this server")
 
 
+class _NumberTooLarge(ValueError):
+    pass
+
+
+#: Digits an integer in a body may have: every real value fits; a 400-digit one cannot become a float.
+_MAX_INT_DIGITS = 20
+
+
+def _bounded_int(text: str) -> int:
+    if len(text.lstrip("-")) > _MAX_INT_DIGITS:
+        raise _NumberTooLarge(text)
+    return int(text)
+
+
 def read_json(req: falcon.Request, limit: int) -> dict[str, Any]:
     """The request's JSON object body ({} when empty); 413/415/400 for anything else."""
     length = req.content_length or 0
@@ -144,7 +158,13 @@ def read_json(req: falcon.Request, limit: int) -> dict[str, Any]:
     if media != "application/json":
         raise ApiError(415, f"expected a JSON body (Content-Type: application/json), got {media or 'none'!r}")
     try:
-        body = json.loads(raw)
+        body = json.loads(raw, parse_int=_bounded_int)
+        # A "\ud800" escape decodes to a lone surrogate, which no file, log or reply can encode.
+        json.dumps(body, ensure_ascii=False).encode("utf-8")
+    except _NumberTooLarge:
+        raise ApiError(400, "a number in the request body is too large") from None
+    except UnicodeEncodeError:
+        raise ApiError(400, "the request body holds text that is not valid Unicode (a lone surrogate escape)") from None
     except (UnicodeDecodeError, ValueError) as exc:
         raise ApiError(400, f"the request body is not valid JSON: {exc}") from None
     except RecursionError:  # json's C decoder gives up on ~1000 levels: refuse, as nothing here nests deeply
