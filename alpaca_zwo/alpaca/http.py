@@ -3,12 +3,24 @@
 waitress's own ``serve()`` blocks and only stops on a signal; the server and the tests need a
 handle that binds first (port 0 -> a free port, known before any client connects), runs in a
 daemon thread, and shuts down cleanly and promptly on ``close()``.
+
+One host must not lock the others out (issue 23, item 3): waitress stops accepting at
+``connection_limit`` open connections, and keeps an idle or slowly trickling one for
+``channel_timeout``. So each remote address may hold ``max_connections_per_address`` connections
+(one beyond that is reset the moment it is accepted), and a request must arrive whole within
+``request_timeout`` of its first byte (of the connection, for the first request), or the
+connection is closed: a slow-header ("slowloris") sender cannot keep a slot by trickling bytes.
+Idle keep-alive between requests keeps waitress's ``channel_timeout``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import socket
+import struct
 import threading
+import time
 from typing import Any
 
 from waitress import wasyncore
@@ -30,12 +42,119 @@ class _ExpectContinueChannel(HTTPChannel):
         super().send_continue()
 
 
+#: How long a request's headers and body may take to arrive; real clients send them at once (and give
+#: up on a reply after 5 s themselves).
+REQUEST_TIMEOUT_S = 5.0
+#: The default number of open connections one remote address may hold (``server.max_connections_per_address``).
+MAX_CONNECTIONS_PER_ADDRESS = 64
+#: At most one warning about refused connections per this many seconds (a flood must not flood the log).
+_WARN_EVERY_S = 60.0
+
+
+class _ConnectionGuard:
+    """Open connections per remote address for one server; ``limit`` 0 counts but never refuses."""
+
+    def __init__(self, limit: int, request_timeout: float) -> None:
+        self.limit = limit
+        self.request_timeout = request_timeout
+        self._open: dict[str, int] = {}
+        self._lock = threading.Lock()  # admit/release run on the loop thread; close() may not
+        self._refused = 0
+        self._warned_at = -_WARN_EVERY_S
+
+    def admit(self, address: str) -> bool:
+        """Count one more connection from ``address``, or refuse it (False) when it holds ``limit``."""
+        with self._lock:
+            count = self._open.get(address, 0)
+            if not self.limit or count < self.limit:
+                self._open[address] = count + 1
+                return True
+            self._refused += 1
+            refused, now = self._refused, time.monotonic()
+            warn = now - self._warned_at >= _WARN_EVERY_S
+            if warn:
+                self._warned_at, self._refused = now, 0
+        if warn:
+            log.warning("refused %d connection(s): %s already holds %d (server.max_connections_per_address)",
+                        refused, address, self.limit)
+        return False
+
+    def release(self, address: str) -> None:
+        with self._lock:
+            count = self._open.get(address, 0) - 1
+            if count > 0:
+                self._open[address] = count
+            else:
+                self._open.pop(address, None)
+
+    def open_count(self, address: str) -> int:
+        with self._lock:
+            return self._open.get(address, 0)
+
+
+def _peer(addr: object) -> str:
+    """The remote address a limit applies to: the IP, IPv4-mapped IPv6 written as IPv4."""
+    host = addr[0] if isinstance(addr, tuple) and addr else str(addr)
+    return host.removeprefix("::ffff:") if isinstance(host, str) else str(host)
+
+
+class _GuardedChannel(_ExpectContinueChannel):
+    """A channel that counts itself against its address's limit and times out a request that never
+    finishes. ``guard`` is set on a per-server subclass (see ``HttpServer``)."""
+
+    guard: _ConnectionGuard
+    will_close: bool  # waitress's flag (untyped there): the loop closes the channel at its next look
+    _peer_address = ""
+    _counted = False
+    #: When the request being received began (its first byte; the accept for the first request),
+    #: ``None`` while idle between requests.
+    request_started: float | None = None
+
+    def __init__(self, server: Any, sock: socket.socket, addr: Any, adj: Any, map: Any = None) -> None:
+        self.request_started = time.time()
+        super().__init__(server, sock, addr, adj, map)
+        self._peer_address = _peer(addr)
+        if self.guard.admit(self._peer_address):
+            self._counted = True
+            return
+        with contextlib.suppress(OSError):  # reset rather than close: no TIME_WAIT per refused connection
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        self.handle_close()
+
+    def del_channel(self, map: Any = None) -> None:
+        super().del_channel(map)
+        if self._counted:
+            self._counted = False
+            self.guard.release(self._peer_address)
+
+    def received(self, data: bytes) -> bool:
+        if self.request_started is None and data:
+            self.request_started = time.time()
+        done: bool = super().received(data)
+        if self.request is None:
+            self.request_started = None  # every request received whole: idle until the next byte
+        return done
+
+    def writable(self) -> bool:
+        # The loop asks every channel this at least once a second (asyncore_loop_timeout): the
+        # place to close one whose request stalls. A request being served (self.requests) is exempt.
+        started = self.request_started
+        if (started is not None and not self.requests and not self.will_close
+                and time.time() - started > self.guard.request_timeout):
+            log.debug("closing %s: request not received within %.0f s", self._peer_address,
+                      self.guard.request_timeout)
+            self.will_close = True
+        return bool(super().writable())
+
+
 class HttpServer:
     """A waitress server bound at construction; ``start()`` serves, ``close()`` stops and joins."""
 
     def __init__(self, app: Any, host: str = "0.0.0.0", port: int = 0, *, threads: int = 8,
                  channel_timeout: int = 60, connection_limit: int = 1000,
-                 max_request_body_size: int = 1 << 20) -> None:
+                 max_request_body_size: int = 1 << 20,
+                 max_connections_per_address: int = MAX_CONNECTIONS_PER_ADDRESS,
+                 request_timeout: float = REQUEST_TIMEOUT_S) -> None:
         self._map: dict[int, Any] = {}
         options: dict[str, Any] = {
             "host": host,
@@ -50,11 +169,15 @@ class HttpServer:
             # waitress buffers a whole body (to disk past 512 KiB) before the app sees it; Alpaca
             # bodies are a few hundred bytes, so refuse big ones at the door (413).
             "max_request_body_size": max_request_body_size,
+            # poll(), not select(): select() fails outright once a descriptor number passes 1023.
+            "asyncore_use_poll": True,
         }
         self._server = create_server(app, map=self._map, **options)
+        self.guard = _ConnectionGuard(max_connections_per_address, request_timeout)
+        channel_class = type("GuardedChannel", (_GuardedChannel,), {"guard": self.guard})
         for listener in self._map.values():
             if isinstance(listener, BaseWSGIServer):
-                listener.channel_class = _ExpectContinueChannel
+                listener.channel_class = channel_class
         # One wake-up pipe per listener (a host name may resolve to several); any reaches the loop.
         self._triggers: list[trigger] = [d for d in self._map.values() if isinstance(d, trigger)]
         self._thread: threading.Thread | None = None
