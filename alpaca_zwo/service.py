@@ -61,6 +61,9 @@ Type=simple
 # SIGTERM stops any manual motion (and parks if safety.on_shutdown = "park") before exiting.
 KillSignal=SIGTERM
 TimeoutStopSec=150
+# Descriptors for waitress's 1000 connections (64 per address, server.max_connections_per_address),
+# the bridges, the serial port and logs; the usual default soft limit (1024) is too tight.
+LimitNOFILE=4096
 # A mount that is not switched on yet, or a crash: try again (the server exits 0 only when stopped).
 Restart=on-failure
 RestartSec=5
