@@ -29,6 +29,7 @@ from .estimator import PositionEstimator
 from .link import Link, Priority
 from .mount_state import MountInfo, MountSettings, MountState
 from .protocol import TrackingState
+from .settings_cache import DEFAULT_REFRESH_S, SETTINGS_CHANGING, SettingsCache
 from .sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
 from .wire_values import Direction, MeridianSettings, MountStatus, TrackRate
 
@@ -70,6 +71,7 @@ class Mount:
         utc_offset: Callable[[], timedelta] | None = None,
         monotonic: Callable[[], float] = time.monotonic,
         clock_rate: float = 1.0,
+        settings_refresh_s: float = DEFAULT_REFRESH_S,
     ) -> None:
         self.link = link
         #: Mount time in seconds: pulse windows, motion and reading ages are measured on it. It is
@@ -101,6 +103,8 @@ class Mount:
         #: land after it.
         self._epoch = 0
         self._publish_lock = threading.Lock()
+        #: The mount-stored settings as last read: what the setup page shows (settings_cache.py).
+        self.settings_cache = SettingsCache(settings_refresh_s)
 
     # -- state -------------------------------------------------------------------------------
 
@@ -144,6 +148,11 @@ class Mount:
             if predicted is not None:
                 return predicted
         return state.ra, state.dec
+
+    @property
+    def settings(self) -> MountSettings | None:
+        """The mount-stored settings as last read, without a serial exchange (None: never read)."""
+        return self.settings_cache.value
 
     @property
     def clock_rate(self) -> float:
@@ -207,6 +216,7 @@ class Mount:
             self.push_site(latitude, longitude)
             guide_rate = self._exec(protocol.query("Ggr"))
             self._init_generation = generation
+            self.settings_cache.mark_stale()  # a new link: possibly another mount, or one reset meanwhile
             self._publish(info=info, status=status, status_time=self.monotonic(), guide_rate=guide_rate,
                           initialised=True)
             log.info("mount %s firmware %s initialised (link generation %d)", info.model, info.firmware, generation)
@@ -438,20 +448,22 @@ class Mount:
 
     # -- settings stored in the mount ---------------------------------------------------------
 
-    def read_settings(self) -> MountSettings:
+    def read_settings(self, priority: Priority = Priority.COMMAND) -> MountSettings:
+        """Read the stored settings now (eight short queries) and keep them as :attr:`settings`."""
+        generation = self.settings_cache.generation
         info = self._state.info
-        meridian = self._try(protocol.query("GTa")) if info is None or info.has_meridian_settings else None
-        heavy = self._try(protocol.query("GRl"))
-        return MountSettings(
-            meridian=meridian,
-            limits_enabled=self._try(protocol.query("GLC")),
-            upper_limit=self._try(protocol.query("GLH")),
-            lower_limit=self._try(protocol.query("GLL")),
-            heavy_duty=None if heavy is None else heavy == 720,
-            buzzer=self._try(protocol.query("GBu")),
-            guide_rate=self._try(protocol.query("Ggr")),
-            daylight_saving=self._try(protocol.query("GH")),
-        )
+
+        def get(code: str) -> Any:
+            return self._try(protocol.query(code), priority)
+
+        meridian = get("GTa") if info is None or info.has_meridian_settings else None
+        heavy = get("GRl")
+        settings = MountSettings(
+            meridian=meridian, limits_enabled=get("GLC"), upper_limit=get("GLH"), lower_limit=get("GLL"),
+            heavy_duty=None if heavy is None else heavy == 720, buzzer=get("GBu"), guide_rate=get("Ggr"),
+            daylight_saving=get("GH"))
+        self.settings_cache.store(settings, generation)
+        return settings
 
     def set_meridian(self, settings: MeridianSettings) -> None:
         self._exec(protocol.set_meridian(settings))
@@ -485,7 +497,11 @@ class Mount:
         body = body[:-1] if body.endswith("#") else body
         match = protocol.match_command(body)
         command = match.command if match else protocol.Command(body, protocol.ReplyKind.NONE, "unknown")
-        return self.link.exchange(protocol.Request(command, f":{body}#"), Priority.COMMAND)
+        try:
+            return self.link.exchange(protocol.Request(command, f":{body}#"), Priority.COMMAND)
+        finally:
+            if command.code in SETTINGS_CHANGING:
+                self.settings_cache.mark_stale()
 
     # -- polling -----------------------------------------------------------------------------
 
@@ -531,9 +547,7 @@ class Mount:
 
     def _poll_loop(self) -> None:
         while not self._stop.is_set():
-            state = self._state
-            busy = bool(state.moving_axes) or state.goto_running or self._estimator.in_motion(self.monotonic())
-            self._poll_wake.wait(self.poll_fast_s if busy else self.poll_slow_s)
+            self._poll_wake.wait(self.poll_fast_s if self._busy() else self.poll_slow_s)
             self._poll_wake.clear()
             if self._stop.is_set():
                 return
@@ -545,9 +559,22 @@ class Mount:
                 if self._init_generation != self.link.generation:
                     self.ensure_initialised()
                 self.poll_once()
+                self._refresh_settings()
             except AlpacaZwoError as exc:
                 log.debug("poll failed: %s", exc)
                 self._publish(poll_error=str(exc))
+
+    def _refresh_settings(self) -> None:
+        """Re-read the stored settings when due (see settings_cache.py), only at rest and at poll priority:
+        every command (a pulse, a GOTO) goes ahead of each of the eight queries, and a stop overtakes
+        any of them on the urgent lane, so a refresh never holds up motion by more than one short query."""
+        if not self._busy() and self.settings_cache.due():
+            self.read_settings(Priority.POLL)
+
+    def _busy(self) -> bool:
+        """Something moves (an axis, a GOTO, a pulse): the poller polls fast and refreshes no settings."""
+        state = self._state
+        return bool(state.moving_axes) or state.goto_running or self._estimator.in_motion(self.monotonic())
 
     # -- helpers -----------------------------------------------------------------------------
 
@@ -558,6 +585,8 @@ class Mount:
             if req.command.code in _STATUS_CHANGING:
                 with self._publish_lock:
                     self._epoch += 1
+            if req.command.code in SETTINGS_CHANGING:
+                self.settings_cache.mark_stale()
 
     def _send_on_idle_line(self, req: protocol.Request, guard: Guard | None = None) -> float:
         """A reply-less command written on an idle line (:meth:`Link.send_on_idle_line`); returns when
@@ -575,9 +604,9 @@ class Mount:
             self._epoch += 1
             return self._publish(**changes)
 
-    def _try(self, req: protocol.Request) -> Any:
+    def _try(self, req: protocol.Request, priority: Priority = Priority.COMMAND) -> Any:
         try:
-            return self._exec(req)
+            return self._exec(req, priority)
         except (MountReplyError, ProtocolError, LinkError) as exc:
             log.debug("%s failed: %s", req.text, exc)
             return None
