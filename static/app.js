@@ -718,6 +718,23 @@
       const result = await run("Network settings saved; restart the server to apply them.", () => post("/setup/api/server", body));
       if (result) fillServer(result);
     });
+    $("form-hosts").addEventListener("submit", async (ev) => {
+      ev.preventDefault();
+      const names = $("n-hosts").value.split(/[\s,]+/).filter((n) => n);
+      const result = await run("Allowed host names saved (in effect now).",
+        () => post("/setup/api/server", { allowed_hosts: names }));
+      if (result) fillServer(result);
+    });
+  }
+
+  // The DNS-rebinding guard: the names added, those always allowed, and a warning when it is off.
+  function fillHosts(info) {
+    const hosts = info.allowed_hosts || [];
+    $("n-hosts").value = hosts.join("\n");
+    $("hosts-always").textContent = (info.host_names || ["localhost"]).join(", ");
+    const off = hosts.includes("*");
+    $("hosts-warning").classList.toggle("hidden", !off);
+    $("hosts-star").classList.toggle("hidden", !off);
   }
 
   function fillServer(info) {
@@ -727,6 +744,7 @@
     $("n-disc").value = info.configured.discovery_port;
     $("n-mdns").checked = info.configured.mdns;
     $("n-location").value = info.location;
+    fillHosts(info);
     setText("server-line", info.manufacturer + " \u00b7 version " + info.version + " \u00b7 port " + info.port +
       (info.discovery_port ? " \u00b7 discovery on UDP " + info.discovery_port : ""), "sub");
     setText("server-info", "Alpaca API: http://" + location.host + "/api/v1/telescope/" + device + "/ \u00b7 " +
