@@ -252,7 +252,8 @@ class HostCheck:
     def process_request(self, req: falcon.Request, resp: falcon.Response) -> None:
         if req.method in _READS and (req.path in self._exact or req.path.startswith(self._prefixes)):
             return
-        reason = self._guard.refusal(req.get_header("Host"), req.get_header("Origin"))
+        env = req.env  # the WSGI names directly: cheaper than get_header on every Alpaca GET
+        reason = self._guard.refusal(env.get("HTTP_HOST"), env.get("HTTP_ORIGIN"))
         if reason is not None:
             if reason not in self._reported:  # once per refusal: a looping page must not flood the log
                 if len(self._reported) >= 64:
