@@ -47,7 +47,7 @@ def probe(port: int, count: int) -> tuple[list[float], int]:
         except OSError:
             failed += 1
             if failed >= 3:  # locked out: three 3 s timeouts say enough
-                return latencies, count - len(latencies)
+                return latencies, failed
         finally:
             conn.close()
     return latencies, failed
@@ -96,7 +96,7 @@ def trickle(socks: list[socket.socket], stop: threading.Event) -> None:
 
 def summary(label: str, latencies: list[float], failed: int) -> str:
     if not latencies:
-        return f"{label:<34} no answer ({failed} failed within {GET_LIMIT_S:.0f} s)"
+        return f"{label:<34} no answer: {failed} requests in a row got none within {GET_LIMIT_S:.0f} s, gave up"
     ms = sorted(x * 1000 for x in latencies)
     p95 = ms[min(len(ms) - 1, int(0.95 * len(ms)))]
     return (f"{label:<34} mean {statistics.mean(ms):6.1f} ms  median {statistics.median(ms):6.1f}  "
