@@ -201,8 +201,9 @@ class ServerSettings:
     mdns: bool = _setting(False, _bool)
     threads: int = _setting(16, _int(1, 256))
     max_body_bytes: int = _setting(65536, _int(1024, 16 * 1024 * 1024))
-    # Open HTTP connections one remote address may hold (waitress serves 1000 in all); 0 = no limit.
-    max_connections_per_address: int = _setting(64, _int(0, 1000))
+    # Open HTTP connections one remote address may hold; at most half of waitress's 1000 in all, so
+    # one address can never fill the server. 0 = no limit.
+    max_connections_per_address: int = _setting(64, _int(0, 500))
     basic_auth_user: str = _setting("", _str(pattern=r"[^:]+", hint="a name without ':'"))
     basic_auth_password: str = _setting("", _str())  # both empty = no authentication
     allow_raw_commands: bool = _setting(False, _bool)
