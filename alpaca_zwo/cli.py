@@ -11,8 +11,10 @@ from pathlib import Path
 
 from . import __version__
 from ._exceptions import AlpacaZwoError, ConfigError
-from .config_file import default_config_path, load_settings
+from .config import Settings
+from .config_file import default_config_path, load_settings, remove_stale_temp_files
 from .devices import DeviceError, check_device, find_mount, format_candidates, list_candidates
+from .listen_check import listen_problem
 from .server import AlpacaZwoServer, Overrides
 from .service import KINDS, render
 from .store import SettingsStore
@@ -129,6 +131,24 @@ def _install_stop_handlers(stop: threading.Event) -> None:
             signal.signal(getattr(signal, name), on_signal)
 
 
+def _listen_problem(args: argparse.Namespace, settings: Settings, path: Path) -> str | None:
+    """One line saying why the HTTP server could not listen where it is told to, and where that is set."""
+    host = args.host if args.host is not None else settings.server.host
+    port = args.port if args.port is not None else settings.server.port
+    problem = listen_problem(host, port)
+    if problem is None:
+        return None
+    where = "--host/--port" if args.host is not None or args.port is not None else f"[server] in {path}"
+    return f"{problem} (set by {where})"
+
+
+def _clean_temp_files(path: Path) -> None:
+    """Temporary files a killed save left beside the settings file (after logging is set up, to say so)."""
+    removed = remove_stale_temp_files(path)
+    if removed:
+        log.info("removed %d stale temporary settings file(s) in %s", len(removed), path.parent)
+
+
 def server_main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     path = args.config or default_config_path()
@@ -146,6 +166,7 @@ def server_main(argv: list[str] | None = None) -> int:
         print(f"alpaca-zwo: configuration error: {exc}", file=sys.stderr)
         return 2
     _configure_logging(args.log_level or settings.logging.level, settings.logging.file)
+    _clean_temp_files(path)
     overrides = Overrides(host=args.host, port=args.port, discovery_port=args.discovery_port,
                           device_url=args.device, mdns=args.mdns, emulator_speed=args.emulator_speed,
                           emulator_baud=args.emulator_baud, emulator_mode=args.emulator_mode,
@@ -153,12 +174,16 @@ def server_main(argv: list[str] | None = None) -> int:
                           zwo_port=args.zwo_port)
     from .web import setup_routes
 
+    problem = _listen_problem(args, settings, path)
+    if problem is not None:
+        print(f"alpaca-zwo: cannot start: {problem}", file=sys.stderr)
+        return 1
     server = AlpacaZwoServer(SettingsStore(settings, path), overrides, extra_routes_factory=setup_routes)
     stop = threading.Event()
     _install_stop_handlers(stop)
     try:
         server.start()
-    except (AlpacaZwoError, OSError) as exc:
+    except (AlpacaZwoError, OSError, ValueError) as exc:  # waitress: ValueError for a host it cannot use
         print(f"alpaca-zwo: cannot start: {exc}", file=sys.stderr)
         server.stop()
         return 1

@@ -9,8 +9,10 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import stat
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -107,7 +109,8 @@ def save_settings(settings: Settings, path: Path | None = None) -> None:
     tmp_name: str | None = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp_name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")  # mode 0600
+        # The writer's pid in the name lets the next start tell an abandoned file from a live write.
+        fd, tmp_name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp")  # 0600
         with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
             f.write(text)
             f.flush()
@@ -122,3 +125,52 @@ def save_settings(settings: Settings, path: Path | None = None) -> None:
         if tmp_name is not None:
             with contextlib.suppress(OSError):
                 os.unlink(tmp_name)
+
+
+#: A temporary file is abandoned once older than this, whoever wrote it (a save lasts milliseconds).
+STALE_TEMP_AGE_S = 60.0
+
+
+def remove_stale_temp_files(path: Path, now: float | None = None) -> list[Path]:
+    """Delete the temporary files :func:`save_settings` left for ``path`` when killed mid-write.
+
+    Only our own names (``.<file name>.[<pid>.]<random>.tmp``) in the file's folder, and only
+    abandoned ones: written by a process that no longer exists (POSIX; on Windows a signal cannot
+    probe a pid safely) or older than :data:`STALE_TEMP_AGE_S`. A second server saving the same
+    file right now keeps its temporary file. Returns what was removed; errors are ignored (the
+    files are harmless, only clutter).
+    """
+    pattern = re.compile(rf"^\.{re.escape(path.name)}\.(?:(?P<pid>\d+)\.)?[A-Za-z0-9_]+\.tmp$")
+    now = time.time() if now is None else now
+    removed = []
+    try:
+        entries = list(path.parent.iterdir())
+    except OSError:
+        return []
+    for entry in entries:
+        match = pattern.match(entry.name)
+        if match is None:
+            continue
+        try:
+            info = entry.lstat()
+            if not stat.S_ISREG(info.st_mode):
+                continue
+            pid = match["pid"]
+            if now - info.st_mtime > STALE_TEMP_AGE_S or (pid is not None and not _process_exists(int(pid))):
+                entry.unlink()
+                removed.append(entry)
+        except OSError:
+            continue
+    return removed
+
+
+def _process_exists(pid: int) -> bool:
+    if os.name != "posix" or pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # EPERM: it exists, someone else's
+        return True
+    return True

@@ -312,6 +312,12 @@ class ServerFacade:
     def port(self) -> int:
         return self._server.port
 
+    def listen_problem(self, host: str, port: int) -> str | None:
+        """Why a restart could not listen on ``host:port`` (None: it could; the port held now counts as free)."""
+        from .listen_check import listen_problem
+
+        return listen_problem(host, port, self.port)
+
     @property
     def discovery_port(self) -> int | None:
         discovery = self._server.discovery

@@ -271,6 +271,7 @@ def server_view(facade: ServerFacade) -> dict[str, Any]:
 
 def change_server(facade: ServerFacade, body: dict[str, Any]) -> None:
     only_keys(body, SERVER_KEYS, "server setting(s)")
+    _check_listen(facade, body)
 
     def change(current: Settings) -> Settings:
         data = settings_to_dict(current)
@@ -280,6 +281,23 @@ def change_server(facade: ServerFacade, body: dict[str, Any]) -> None:
     facade.update_settings(change)
     when = "after a restart" if restart_required(body) else "now"
     log.info("setup page: server settings changed (%s); in effect %s", ", ".join(sorted(body)), when)
+
+
+def _check_listen(facade: ServerFacade, body: dict[str, Any]) -> None:
+    """A new host or port is saved only if the next start can listen there (it would fail otherwise,
+    and the page that could undo it would be gone): an address of this machine, 0.0.0.0 or ::, and a
+    port free to bind or the one in use now."""
+    if "host" not in body and "port" not in body:
+        return
+    host = body.get("host", facade.settings.server.host)
+    port = body.get("port", facade.settings.server.port)
+    if not isinstance(host, str):
+        raise ApiError(400, "host must be a string: 0.0.0.0, :: or an address of this machine")
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        raise ApiError(400, "port must be a whole number from 0 to 65535")
+    problem = facade.listen_problem(host, port)
+    if problem is not None:
+        raise ApiError(400, f"not saved: {problem}")
 
 
 def restart_required(body: dict[str, Any]) -> bool:
