@@ -150,6 +150,7 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings, AltAzRules):
         self._vel = [0.0, 0.0]
         self._last_side = sky.PierSide.WEST
         self._slew: Slew | None = None
+        self._braking_until = self._t
         self._moves: list[float | None] = [None, None]
         self._pulses: list[Pulse | None] = [None, None]
         self._speed = SLEW_SPEEDS[9]
@@ -236,8 +237,8 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings, AltAzRules):
                 return 4  # a guess: no ZWO code for "parked" is published (OnStep uses 4)
             if not self._initialized():
                 return 7
-            if self._slew is not None:
-                return 3
+            if self._slew is not None or self._braking():
+                return 3  # also while a stopped slew still brakes (README: "GOTO during braking")
             lst = self._lst()
             ha = sky.hour_angle(lst, self._target_ra)
             alt, _ = sky.equatorial_to_horizontal(ha, self._target_dec, self._latitude)
@@ -262,6 +263,7 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings, AltAzRules):
 
     def _start_slew(self, slew: Slew) -> None:
         self._slew = slew
+        self._braking_until = self._t  # the new slew takes over the braking axes
         self._moves = [None, None]
         self._pulses = [None, None]
         self._track_error = None  # a slew moves away from whatever stopped tracking
@@ -333,14 +335,18 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings, AltAzRules):
     def stop(self) -> None:
         """``:Q#``: end GOTO/home/park slews, moves and pulses; tracking stays as it was.
 
-        The axes brake at the normal deceleration, but the slew counts as ended at once (``N``
-        back in ``:GU#``) so a client can re-target right away, as INDI does after 100 ms.
+        The axes brake at the normal deceleration. A stopped slew keeps the mount in its GOTO
+        state until both axes have braked (no ``N`` in ``:GU#``, ``:MS#`` answers ``e3#``), as the
+        firmware's state machine does (README: "GOTO during braking").
         """
         with self._lock:
             self._advance()
+            was_slewing = self._slew is not None
             self._slew = None
             self._moves = [None, None]
             self._pulses = [None, None]
+            if was_slewing:
+                self._begin_braking()
 
     # ---------------------------------------------------------------- manual moves, guiding
 
@@ -537,15 +543,16 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings, AltAzRules):
             at_home = idle_home and (flag == "always_at_home" or (flag == "after_home" and self._home_flag))
             return MountStatus(
                 tracking=self._tracking,
-                slewing=self._slew is not None,
+                slewing=self._slew is not None or self._braking(),
                 at_home=at_home,
                 mode=self._mode,
             )
 
     def slewing(self) -> bool:
+        """In the GOTO state: a slew, or a stopped slew still braking (what ``:GU#`` shows)."""
         with self._lock:
             self._advance()
-            return self._slew is not None
+            return self._slew is not None or self._braking()
 
     def snapshot(self) -> dict[str, Any]:
         """Everything worth inspecting, JSON-friendly, for tests and the control port."""
@@ -580,6 +587,7 @@ class MountModel(Mechanics, ClockAndSite, FlashSettings, AltAzRules):
                 "at_home": self._at_home_position(),
                 "homed": self._homed,
                 "slew": None if self._slew is None else self._slew.kind,
+                "braking": self._braking(),
                 "moves_deg_s": list(self._moves),
                 "pulses": [None if p is None else {"deg_s": p.velocity, "end_s": p.end} for p in self._pulses],
                 "tracking": self._tracking,

@@ -136,6 +136,16 @@ class Mechanics(ModelBase):
                 self._homed = True
                 self._home_flag = True
 
+    def _begin_braking(self) -> None:
+        """A slew stopped by ``:Q#``: the mount stays in its GOTO state until both axes have braked
+        to the speed they keep (tracking or rest) at the normal deceleration, exactly as ``ramp`` does."""
+        keep = [0.0, 0.0] if self._altaz() else [self._commanded(RA), self._commanded(DEC)]
+        excess = max(abs(self._vel[axis] - keep[axis]) for axis in (RA, DEC))
+        self._braking_until = self._t + excess / self._accel
+
+    def _braking(self) -> bool:
+        return self._t < self._braking_until - 1e-9
+
     def _commanded(self, axis: int, pulses: bool = True) -> float:
         """Steady velocity an axis is driven at outside slews (mechanical deg/s; in alt-az mode the
         hour-angle and Dec speeds the pointing is to move at)."""

@@ -146,6 +146,7 @@ class ModelBase:
     _vel: list[float]
     _last_side: sky.PierSide
     _slew: Slew | None
+    _braking_until: float  # emulated time a slew stopped by :Q# ends braking (GOTO state held till then)
     _moves: list[float | None]
     _pulses: list[Pulse | None]
     _speed: float

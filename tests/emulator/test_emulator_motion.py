@@ -99,7 +99,32 @@ def test_goto_during_goto_is_refused_with_e3(ready: MountClient, model: MountMod
     clock.advance(1.0)
     assert ready.exact(":MS#") == "e3#"
     assert ready.exact(":Td#") == "0"  # tracking cannot be switched off mid-GOTO (ZWO v2.1)
-    ready.send(":Q#")  # INDI: abort, then re-target
+    ready.send(":Q#")  # INDI: abort, then re-target (once the axes have braked, see the next test)
+    clock.advance(3.0)  # 1440x brakes in 2 s at 3 deg/s^2
+    assert "N" in flags(ready)
+    assert ready.exact(":MS#") == "0"
+    wait_slew(ready, clock)
+    assert sky.angular_separation(*model.position(), *model.target()) < ARCSEC
+
+
+def test_goto_while_a_stopped_slew_brakes_is_refused_with_e3(
+    ready: MountClient, model: MountModel, clock: ManualClock
+) -> None:
+    """After :Q# the firmware stays in its GOTO state until both motors have stopped (README,
+    "GOTO during braking"): no N in :GU# and e3# for a GOTO until then, a GOTO accepted after."""
+    ready.exact(protocol.set_target_ra(target_at(model, 3.0)).text)
+    ready.exact(":Sd+20*00:00#")
+    assert ready.exact(":MS#") == "0"
+    clock.advance(4.0)  # at full speed on at least one axis
+    speed = max(abs(v) for v in model.snapshot()["velocity_deg_s"])
+    assert speed > 5.0
+    ready.send(":Q#")
+    clock.advance(0.1)  # INDI re-targets 100 ms after its abort
+    assert "N" not in flags(ready)
+    assert ready.exact(":MS#") == "e3#"
+    assert model.snapshot()["braking"]
+    clock.advance(speed / 3.0)  # the rest of the braking at 3 deg/s^2
+    assert not model.snapshot()["braking"]
     assert "N" in flags(ready)
     assert ready.exact(":MS#") == "0"
     wait_slew(ready, clock)

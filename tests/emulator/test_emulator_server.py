@@ -43,6 +43,7 @@ def test_several_connections_share_one_mount(
     assert second.ask(":GR#") == third.ask(":GR#")
     assert third.exact(":MS#") == "e3#"
     third.send(":Q#")  # any connection can stop it
+    clock.advance(3.0)  # the axes brake (the GOTO state lasts until they have)
     assert "N" in flags(first)
 
 
