@@ -67,10 +67,14 @@ class Attacker:
             sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
             sock.bind((ATTACKER, 0))
             sock.settimeout(5)
-            sock.connect(("127.0.0.1", self.port))
-            sock.setblocking(False)
             self.opened[sock] = time.monotonic()
             batch.append(sock)
+            try:
+                sock.connect(("127.0.0.1", self.port))
+            except ConnectionResetError:  # the server's reset overtook connect() returning
+                self.closed[sock] = time.monotonic()
+                continue
+            sock.setblocking(False)
             if first:
                 self._send(sock, first)
         self.sockets.extend(batch)
