@@ -11,6 +11,48 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from . import wire_values
+
+
+def wire_position(ra: float, dec: float) -> tuple[float, float]:
+    """(RA, Dec) as the mount receives them in ``:Sr``/``:Sd``: whole seconds of RA, whole arcseconds."""
+    return (wire_values.parse_hms(wire_values.format_hms(ra)),
+            wire_values.parse_dms(wire_values.format_dms(max(-90.0, min(90.0, dec)))))
+
+
+def _wrap12(hours: float) -> float:
+    return (hours + 12.0) % 24.0 - 12.0
+
+
+@dataclass(frozen=True)
+class SyncRemainder:
+    """What a sync's wire could not carry: the synced position minus the whole seconds and arcseconds
+    the mount was synced to (at most 0.5 s of RA, 0.5″ of Dec).
+
+    The mount makes its reading equal the wire values at the sync, so the client's frame (the
+    *sky* frame) is the mount's frame plus this remainder: readings add it, GOTO targets lose it
+    before they are rounded. Without it a sync to a solved position is off by up to 7.5″·cos(Dec)
+    after the next GOTO (R23 in shared/alpaca/clients.md). It lives as long as the mount's own
+    sync: until the next sync, ``:NSC#``, or a mount restart (which also is when a mode change
+    takes effect); the mount keeps its alignment across home and park, and so does this.
+    """
+
+    ra: float = 0.0  # hours
+    dec: float = 0.0  # degrees
+
+    @classmethod
+    def of_sync(cls, ra: float, dec: float) -> SyncRemainder:
+        wire_ra, wire_dec = wire_position(ra, dec)
+        return cls(_wrap12(ra - wire_ra), dec - wire_dec)
+
+    def to_sky(self, ra: float, dec: float) -> tuple[float, float]:
+        """A mount-frame position in the synced (client) frame."""
+        return (ra + self.ra) % 24.0, max(-90.0, min(90.0, dec + self.dec))
+
+    def to_mount(self, ra: float, dec: float) -> tuple[float, float]:
+        """A client's position as the mount must be given it."""
+        return (ra - self.ra) % 24.0, max(-90.0, min(90.0, dec - self.dec))
+
 
 @dataclass
 class PositionEstimator:
@@ -67,6 +109,12 @@ class PositionEstimator:
         # ones still running here (predict() runs on every coordinate read).
         self._rebase(start)
         self.pending.append((start, end, dra_per_s, ddec_per_s))
+
+    def shift_ra(self, hours: float) -> None:
+        """Every RA reading moved by ``hours`` (a new longitude moves the sidereal time under a still
+        mount): the estimate moves with them and keeps its precision, if the next reading agrees."""
+        if self.anchor_ra is not None:
+            self.anchor_ra = (self.anchor_ra + hours) % 24.0
 
     def invalidate(self) -> None:
         self.anchor_ra = self.anchor_dec = None

@@ -25,7 +25,7 @@ from typing import Any
 
 from . import protocol, wire_values
 from ._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
-from .estimator import PositionEstimator
+from .estimator import PositionEstimator, SyncRemainder, wire_position
 from .link import Link, Priority
 from .mount_state import MountInfo, MountSettings, MountState
 from .protocol import TrackingState
@@ -97,7 +97,11 @@ class Mount:
         self._drift = [0.0, 0.0]
         #: Added to the host clock when the mount's time is pushed (a client may set UTCDate).
         self.clock_offset = timedelta(0)
-        self._goto_target: tuple[float, float] | None = None
+        self._goto_target: tuple[float, float] | None = None  # in the mount's frame
+        #: The last sync's sub-second rest (estimator.SyncRemainder); the estimator and the goto
+        #: target are in the mount's frame, everything published and returned is in the client's.
+        self._remainder = SyncRemainder()
+        self._pushed_site: tuple[float, float] | None = None  # (lat, east lon) as the mount took them
         #: Bumped (under _publish_lock) after every command that changes what a poll reads, so a
         #: poll that overlapped one publishes nothing: a reading from before a sync must never
         #: land after it.
@@ -146,8 +150,13 @@ class Mount:
             with self._estimator_lock:
                 predicted = self._estimator.predict(now)
             if predicted is not None:
-                return predicted
+                return self._remainder.to_sky(*predicted)
         return state.ra, state.dec
+
+    @property
+    def sync_remainder(self) -> SyncRemainder:
+        """What the last sync's wire could not carry, added to every reading (see SyncRemainder)."""
+        return self._remainder
 
     @property
     def settings(self) -> MountSettings | None:
@@ -209,6 +218,7 @@ class Mount:
             self.link.expect_probe_reply(info.model)
             status = self._exec(protocol.query("GU"))
             mount_date = self._exec(protocol.query("GC"))
+            self._check_restart(status, mount_date.year <= 2000)
             if mount_date.year <= 2000:
                 log.info("mount %s reports date %s: time and site not set since power-up", info.model, mount_date)
             self.push_time()
@@ -220,6 +230,18 @@ class Mount:
             self._publish(info=info, status=status, status_time=self.monotonic(), guide_rate=guide_rate,
                           initialised=True)
             log.info("mount %s firmware %s initialised (link generation %d)", info.model, info.firmware, generation)
+
+    def _check_restart(self, status: MountStatus, clock_lost: bool) -> None:
+        """A mount that restarted (its clock reads 2000, or its mode changed, which happens only at a
+        restart) has forgotten its sync: so does the server, and its estimate with it. A reconnect
+        to a mount that kept its clock keeps both, as the mount keeps its alignment."""
+        previous = self._state.status
+        if clock_lost or (previous is not None and previous.mode is not status.mode):
+            with self._estimator_lock:
+                self._remainder = SyncRemainder()
+                self._estimator.invalidate()
+                self._goto_target = None
+            self._pushed_site = None
 
     def push_time(self) -> None:
         """Set the mount's clock to the host's, with the zone sign the mount expects (negated).
@@ -243,48 +265,93 @@ class Mount:
         local = boundary + offset
         self.link.execute(protocol.set_time(local.time()), Priority.COMMAND)
         self._exec(protocol.set_date(local.date()))
+        self._reread_position()  # a new clock moves every RA reading by an amount only the mount knows
 
     def push_site(self, latitude: float, east_longitude: float) -> None:
+        """Set the mount's site; the position is read again before this returns (see _reread_position)."""
         self._exec(protocol.set_latitude(latitude))
         self._exec(protocol.set_longitude(east_longitude))
+        site = (round(latitude * 3600.0) / 3600.0, round(east_longitude * 3600.0) / 3600.0)
+        previous, self._pushed_site = self._pushed_site, site
+        shift: float | None = None
+        if previous is not None and (site[0] == previous[0] or not self._state.altaz):
+            # Equatorial readings move with the sidereal time only: exactly by the change of longitude.
+            shift = (site[1] - previous[1]) / 15.0
+        self._reread_position(shift)
+
+    def _reread_position(self, ra_shift_h: float | None = None) -> None:
+        """A command changed what the mount's readings mean (site, clock, zone, alignment): read the
+        position now and publish it, so the next read anywhere (Alpaca, the bridges, the page)
+        reflects the change instead of an estimate carried over from the old meaning for up to a
+        poll. ``ra_shift_h``, when the change is known exactly (a new longitude), moves the estimate
+        with the readings so it keeps its precision while the new reading agrees; otherwise the
+        estimate is dropped, as after a GOTO, and restarts from the reading."""
+        with self._estimator_lock:
+            if ra_shift_h is None:
+                self._estimator.invalidate()
+            else:
+                self._estimator.shift_ra(ra_shift_h)
+        if self._init_generation != self.link.generation:
+            return  # initialising: the poll that follows it publishes, with the state it completes
+        ra, dec = self._exec(protocol.query("GMEQ"))
+        now = self.monotonic()
+        with self._publish_lock:
+            self._epoch += 1  # a poll that read before the change publishes nothing
+            state = self._state
+            with self._estimator_lock:
+                if state.moving_axes or state.goto_running:
+                    self._estimator.invalidate()
+                    best = (ra, dec)
+                else:
+                    best = self._estimator.observe(ra, dec, now)
+            sky_ra, sky_dec = self._remainder.to_sky(*best)
+            self._publish(ra=sky_ra, dec=sky_dec, raw_ra=ra, raw_dec=dec, position_time=now)
 
     # -- motion ------------------------------------------------------------------------------
 
     def goto(self, ra: float, dec: float, guard: Guard | None = None) -> tuple[float, float]:
         """Start a GOTO; return the target as the mount received it (whole seconds of RA, whole
-        arcseconds). MountReplyError carries the mount's refusal (e3, e5, e6, e7 …); ``guard``
-        withdraws the :MS# unsent (MotionCancelled) if a stop came first."""
+        arcseconds in the mount's frame, plus the sync remainder). MountReplyError carries the
+        mount's refusal (e3, e5, e6, e7 …); ``guard`` withdraws the :MS# unsent (MotionCancelled)
+        if a stop came first."""
         self.ensure_initialised()
-        set_ra, set_dec = protocol.set_target_ra(ra), protocol.set_target_dec(dec)
-        wire = (wire_values.parse_hms(set_ra.text[3:-1]), wire_values.parse_dms(set_dec.text[3:-1]))
-        self._exec(set_ra)
-        self._exec(set_dec)
         try:
-            self._exec(protocol.query("MS"), guard=guard)
+            remainder, wire = self._send_goto(ra, dec, guard)
         except MountReplyError as exc:
             if exc.code != 7:
                 raise
             # The mount forgot time and site behind our back (a reboot the link did not see).
             self._init_generation = -1
             self._publish(initialised=False)
-            self.ensure_initialised()
-            self._exec(set_ra)
-            self._exec(set_dec)
-            self._exec(protocol.query("MS"), guard=guard)
+            self.ensure_initialised()  # also forgets the sync the mount lost (_check_restart)
+            remainder, wire = self._send_goto(ra, dec, guard)
         with self._estimator_lock:
             self._estimator.invalidate()
             self._goto_target = wire
         self.refresh()
-        return wire
+        return remainder.to_sky(*wire)
+
+    def _send_goto(self, ra: float, dec: float, guard: Guard | None) -> tuple[SyncRemainder, tuple[float, float]]:
+        """``:Sr :Sd :MS#`` for a client's target: the mount gets it without the sync remainder."""
+        remainder = self._remainder
+        mount_ra, mount_dec = remainder.to_mount(ra, dec)
+        wire = wire_position(mount_ra, mount_dec)
+        self._exec(protocol.set_target_ra(mount_ra))
+        self._exec(protocol.set_target_dec(mount_dec))
+        self._exec(protocol.query("MS"), guard=guard)
+        return remainder, wire
 
     def sync(self, ra: float, dec: float) -> None:
+        """Sync the mount to a client's position. The mount takes it in whole seconds and arcseconds
+        and reads exactly those afterwards; the rest becomes the sync remainder (SyncRemainder)."""
         self.ensure_initialised()
         self._exec(protocol.set_target_ra(ra))
         self._exec(protocol.set_target_dec(dec))
         self._exec(protocol.query("CM"))
         now = self.monotonic()
         with self._estimator_lock:
-            self._estimator.set_exact(ra, dec, now)
+            self._remainder = SyncRemainder.of_sync(ra, dec)
+            self._estimator.set_exact(*wire_position(ra, dec), now)
             self._estimator.set_ra_rate(self._ra_drift(), now)
         self._changed(ra=ra % 24.0, dec=dec, position_time=now)
         self.refresh()
@@ -293,7 +360,7 @@ class Mount:
         """Adopt exact coordinates the mount already agrees with, without a sync command."""
         now = self.monotonic()
         with self._estimator_lock:
-            self._estimator.set_exact(ra, dec, now)
+            self._estimator.set_exact(*self._remainder.to_mount(ra, dec), now)
             self._estimator.set_ra_rate(self._ra_drift(), now)
         self._publish(ra=ra % 24.0, dec=dec, position_time=now)
 
@@ -488,7 +555,12 @@ class Mount:
         self._exec(protocol.query("AP" if equatorial else "AA"))
 
     def clear_alignment(self) -> None:
+        """``:NSC#``: the mount forgets its syncs, so the sync remainder goes too and the position
+        means something else at once."""
         self._exec(protocol.query("NSC"))
+        with self._estimator_lock:
+            self._remainder = SyncRemainder()
+        self._reread_position()
 
     def raw(self, text: str) -> str:
         """Send a raw command (``:XX#`` with or without the framing) and return its raw reply."""
@@ -498,10 +570,23 @@ class Mount:
         match = protocol.match_command(body)
         command = match.command if match else protocol.Command(body, protocol.ReplyKind.NONE, "unknown")
         try:
-            return self.link.exchange(protocol.Request(command, f":{body}#"), Priority.COMMAND)
+            reply = self.link.exchange(protocol.Request(command, f":{body}#"), Priority.COMMAND)
         finally:
             if command.code in SETTINGS_CHANGING:
                 self.settings_cache.mark_stale()
+        if command.code in _READING_CHANGING:
+            self._raw_changed_readings(command.code)
+        return reply
+
+    def _raw_changed_readings(self, code: str) -> None:
+        """A raw command changed what the readings mean: the effect the typed method would have. A raw
+        sync point is on the wire already, so it, like ``:NSC#``, leaves no sync remainder."""
+        with self._estimator_lock:
+            if code in ("CM", "SMMC", "NSC"):
+                self._remainder = SyncRemainder()
+        if code in ("St", "Sg"):
+            self._pushed_site = None  # no longer what the server pushed: the next push cannot shift
+        self._reread_position()
 
     # -- polling -----------------------------------------------------------------------------
 
@@ -542,6 +627,7 @@ class Mount:
                 if drift != self._estimator.ra_rate:
                     self._estimator.set_ra_rate(drift, now)
                 best = self._estimator.observe(ra, dec, now)
+        best = self._remainder.to_sky(*best)
         return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now, status=status,
                              status_time=now, tracking=tracking, pier=pier, poll_error="")
 
@@ -630,8 +716,12 @@ class Mount:
 #: Commands that change what a poll reads (position, :GU#, :GAT#, :Gm#); pulses and queries do not.
 _STATUS_CHANGING = frozenset(
     {"Te", "Td", "MS", "SMeq", "hC", "hP", "Q", "CM", "SMMC", "TQ", "TS", "TL", "Spu", "AP", "AA",
-     "Me", "Mw", "Mn", "Ms", "Qe", "Qw", "Qn", "Qs"}
+     "Me", "Mw", "Mn", "Ms", "Qe", "Qw", "Qn", "Qs", "St", "Sg", "SG", "SL", "SC", "NSC"}
 )
+
+
+#: Commands after which a reading means something else (alignment, clock, site, sidereal time, DST).
+_READING_CHANGING = frozenset({"CM", "SMMC", "NSC", "St", "Sg", "SG", "SL", "SC", "SS", "SH"})
 
 
 def _close(a: tuple[float, float], b: tuple[float, float]) -> bool:

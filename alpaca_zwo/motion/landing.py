@@ -79,7 +79,9 @@ class LandingMixin:
         now = self.mount.monotonic()
         lst_at = self._lst() + lead_s * SIDEREAL_HOURS_PER_S
         ra_exact = (lst_at - landing.ha) % 24.0
-        ra_wire = math.ceil(ra_exact * 3600.0 - 1e-9) / 3600.0
+        # Whole seconds in the mount's frame, which is the client's less the sync remainder.
+        remainder = self.mount.sync_remainder.ra
+        ra_wire = math.ceil((ra_exact - remainder) * 3600.0 - 1e-9) / 3600.0 + remainder
         landing.t_star = now + lead_s + (ra_wire - ra_exact) / SIDEREAL_HOURS_PER_S
         return ra_wire % 24.0
 
