@@ -203,3 +203,30 @@ def test_the_log_keeps_the_path(server_factory: ServerFactory, tmp_path: Path,
     assert body["ErrorNumber"] == ERR_SETTINGS_NOT_SAVED and str(tmp_path) not in body["ErrorMessage"]
     assert any(str(tmp_path / "cfg" / "config.toml") in r.getMessage() for r in caplog.records)
 
+
+
+def test_a_mount_that_fails_after_the_save_gets_the_file_put_back(rig_factory: Any, tmp_path: Path) -> None:
+    """The other half of the order "file first, then the mount": when the mount cannot take a change
+    that was already saved (here its WiFi is gone), the file is put back, so the file, the server's
+    settings and the mount (the emulator's truth) still agree. A regression guard for the new order
+    (the old code set the mount first)."""
+    rig = rig_factory()
+    client = rig.client(CLIENT_ID)
+    client.command("siteelevation", SiteElevation="46.5")  # the file exists
+    config = tmp_path / "config.toml"
+    file_before = config.read_bytes()
+    limits_before = rig.telescope.settings.limits
+    mount_before = rig.snapshot()["meridian"]
+    session = requests.Session()
+
+    rig.faults.outage(30.0)
+    call = client.put("action", Action="zwo:MeridianSettings", Parameters='{"limit_degrees": 9, "track_past": true}')
+    assert call.status == 200 and call.error_number is not None and 0x500 <= call.error_number < 0x510, call.describe()
+    change = {"meridian": {"track_after": True, "limit_degrees": 9}, "limits": {"min_altitude_deg": 7}}
+    reply = session.post(f"http://127.0.0.1:{rig.port}/setup/api/telescope/0/settings", json=change,
+                         headers=HEADERS, timeout=TIMEOUT)
+    assert reply.status_code == 409, reply.text  # the mount's state, not the storage
+    assert config.read_bytes() == file_before
+    assert rig.telescope.settings.limits == limits_before
+    rig.faults.clear()
+    assert rig.snapshot()["meridian"] == mount_before
