@@ -14,7 +14,7 @@ from datetime import datetime, timedelta, timezone
 from typing import TYPE_CHECKING
 
 from .. import wire_values
-from .._exceptions import InvalidValue, ProtocolError
+from .._exceptions import AlpacaError, InvalidValue, ProtocolError
 from ..wire_values import format_date, format_time, format_utc_offset
 
 if TYPE_CHECKING:
@@ -103,7 +103,7 @@ class ClockAndSite:
                 t.set_site_latitude(latitude)
             if longitude is not None and abs(longitude - t.site_longitude()) >= SITE_TOLERANCE_DEG:
                 t.set_site_longitude(longitude)
-        except InvalidValue:
+        except AlpacaError:  # out of range, or not saved (full disk: SettingsNotSaved): refused, as the mount would
             return "0"
         return "1"
 

@@ -24,8 +24,9 @@ import pytest
 import requests
 
 from alpaca_zwo._exceptions import ERR_SETTINGS_NOT_SAVED
+from alpaca_zwo.config import ZwoPortSettings
 from alpaca_zwo.web import CSRF_HEADER
-from tests.conftest import ServerFactory
+from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient
 
 HEADERS = {CSRF_HEADER: "1", "Content-Type": "application/json"}
@@ -230,3 +231,29 @@ def test_a_mount_that_fails_after_the_save_gets_the_file_put_back(rig_factory: A
     assert rig.telescope.settings.limits == limits_before
     rig.faults.clear()
     assert rig.snapshot()["meridian"] == mount_before
+
+
+def test_zwo_port_site_setters_are_refused_when_the_save_fails(server_factory: ServerFactory, tmp_path: Path) -> None:
+    """INDI sets the site through the shared ZWO port (``:St``/``:Sg``): a site that cannot be saved is
+    refused with the mount's ``0`` and the site stays as it was (before: no reply at all, a traceback
+    in the log)."""
+    from tests.bridges.test_zwo_port import ZwoClient
+
+    settings = make_settings(zwo_port=ZwoPortSettings(enabled=True, host="127.0.0.1", port=0))
+    server = server_factory(settings, config_name="cfg/config.toml")
+    client = AlpacaClient(server.port, CLIENT_ID, timeout=TIMEOUT)
+    client.command("connected", Connected="true")
+    client.command("siteelevation", SiteElevation="46.5")  # the file and its folder exist
+    assert server.zwo_port is not None
+    zwo = ZwoClient(server.zwo_port.port)
+    try:
+        storage = Storage(tmp_path, "folder-is-a-file")
+        storage.break_it()
+        before = client.value("sitelatitude"), client.value("sitelongitude")
+        assert zwo.ask(":St+48*06:00#") == b"0"
+        assert zwo.ask(":Sg-011*30:00#") == b"0"
+        assert (client.value("sitelatitude"), client.value("sitelongitude")) == before
+        storage.mend()
+        assert zwo.ask(":St+48*06:00#") == b"1"
+    finally:
+        zwo.close()
