@@ -37,9 +37,11 @@ __all__ = [
     "horizontal_to_equatorial",
     "hour_angle",
     "julian_date",
+    "kept_goto_side",
     "local_sidereal_time",
     "pointing_state",
     "ra_from_hour_angle",
+    "side_limit_deg",
     "wrap_degrees_360",
     "wrap_hours_12",
     "wrap_hours_24",
@@ -284,3 +286,47 @@ def goto_pier_side(target_ha_hours: float, current_side: PierSide, meridian_limi
     if not math.isfinite(target_ha_hours):
         return PierSide.UNKNOWN
     return PierSide.WEST if wrap_hours_12(target_ha_hours) < meridian_limit_deg / 15.0 else PierSide.EAST
+
+
+FLIP_ZONE_DEG = 15.0
+"""How far east of the meridian a pierEast pointing may be kept: the mount's own -15° :STa limit
+(a negative limit makes the mount take pierEast that far before the meridian). docs/meridian.md."""
+
+FLIP_MARGIN_DEG = 2.0
+"""Room a temporary pierWest limit leaves past the target: its HA grows during the slew and landing."""
+
+
+def side_limit_deg(target_ha_hours: float, side: PierSide) -> int | None:
+    """The :STa limit (whole degrees) under which a GOTO to ``target_ha_hours`` lands on ``side``.
+
+    Under the flip line of :func:`goto_pier_side` (WEST below the limit, EAST at or above it):
+    EAST needs a limit at or below the HA (0 past the meridian, down to -15° before it), WEST one
+    above it with :data:`FLIP_MARGIN_DEG` to spare (0 well before the meridian, up to +15° past it,
+    which needs "track past"). None when the mount's -15..+15° range cannot reach: that side cannot
+    point there. A limit of 0 also makes a mount that flips at the meridian itself (the other reading
+    of the evidence, docs/meridian.md) land on EAST past the meridian and on WEST before it.
+    """
+    if not math.isfinite(target_ha_hours) or side not in (PierSide.EAST, PierSide.WEST):
+        return None
+    ha_deg = wrap_hours_12(target_ha_hours) * 15.0
+    if side is PierSide.EAST:
+        if ha_deg >= 0.0:
+            return 0
+        return math.floor(ha_deg) if ha_deg >= -FLIP_ZONE_DEG else None
+    limit = max(0, math.ceil(ha_deg + FLIP_MARGIN_DEG))
+    return limit if limit <= 15 else None
+
+
+def kept_goto_side(target_ha_hours: float, current_side: PierSide, meridian_limit_deg: float) -> PierSide:
+    """The pier side a GOTO through this server lands on: the mount's own choice
+    (:func:`goto_pier_side`), except that a mount on EAST stays there for targets in the flip zone
+    (from :data:`FLIP_ZONE_DEG` east of the meridian up to the limit), where the mount alone would
+    swing back to WEST. That keeps a SideOfPier flip made just past the meridian through the GOTO a
+    client sends next (N.I.N.A. writes SideOfPier, then slews to the same target), and it is the
+    hysteresis of other German mounts' flip zones. The server gets it by a temporary :STa limit
+    (:func:`side_limit_deg`)."""
+    side = goto_pier_side(target_ha_hours, current_side, meridian_limit_deg)
+    if side is PierSide.WEST and current_side is PierSide.EAST \
+            and side_limit_deg(target_ha_hours, PierSide.EAST) is not None:
+        return PierSide.EAST
+    return side

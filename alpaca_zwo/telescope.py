@@ -32,6 +32,7 @@ from ._exceptions import (
 from .clients import ClientKey, ClientRegistry, current_client
 from .config import DeviceSettings, Settings, horizon_altitude_at
 from .motion import Motion, MotionKind, MotionSupervisor
+from .motion.flip import PierFlips, side_setting
 from .mount import Mount
 from .mount_state import MountState
 from .sky import PierSide
@@ -99,6 +100,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         self._meridian = MeridianSettings()
         self.motion = MotionSupervisor(mount, lambda: self.store.settings, self._lst, self.registry,
                                        name=f"motion-{device_index}")
+        self.flips = PierFlips(mount, self.motion, lambda: self._meridian)  # SideOfPier writes
 
     # -- configuration -----------------------------------------------------------------------
 
@@ -133,6 +135,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         self.motion.close()
         self._cancel_linger()
         if self.mount.running:
+            self.flips.restore_now()
             self.mount.disconnect()
 
     # -- common members ----------------------------------------------------------------------
@@ -317,7 +320,28 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return int(sky.pointing_state(sky.hour_angle(self._lst(), self._position()[0])))
 
     def set_side_of_pier(self, value: int) -> None:
-        raise MemberNotImplemented("the mount chooses its pier side itself; SideOfPier cannot be set")
+        """Flip to the other pointing state on the current position: a GOTO under a meridian limit
+        that makes the mount take that side (motion/flip.py, docs/meridian.md). Asynchronous like
+        any slew: Slewing until at rest, AbortSlew stops it. Writing the current side does nothing."""
+        if value not in (PierSide.EAST, PierSide.WEST):
+            raise InvalidValue(f"SideOfPier {value} is not 0 (pierEast) or 1 (pierWest)")
+        self._require_connected()
+        if self._altaz_mode():
+            raise MemberNotImplemented("an alt-az mount has no pier side to set")
+        self._require_unparked("SideOfPier")
+        if self.side_of_pier() == value:
+            return
+        ra, dec = self._position()
+        limit = sky.side_limit_deg(sky.hour_angle(self._lst(), ra), PierSide(value))
+        if limit is None:
+            raise InvalidOperation(f"the mount cannot point at hour angle {sky.hour_angle(self._lst(), ra):+.2f} h "
+                                   f"from {PierSide(value).name.lower()} of the pier (15° past the meridian at most)")
+        self._check_above_limits(ra, dec)
+        self.flips.goto(ra, dec, side_setting(limit))
+
+    def _pier(self) -> PierSide:
+        pier = self.mount.state.pier
+        return PierSide.EAST if pier == "E" else PierSide.WEST if pier == "W" else PierSide.UNKNOWN
 
     def destination_side_of_pier(self, right_ascension: float, declination: float) -> int:
         self._check_equatorial(right_ascension, declination)
@@ -325,7 +349,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         if self._altaz_mode():
             return int(PierSide.UNKNOWN)  # no pier side to predict in alt-az mode
         ha = sky.hour_angle(self._lst(), right_ascension)
-        return int(sky.goto_pier_side(ha, PierSide.UNKNOWN, self._flip_limit_deg()))
+        return int(sky.kept_goto_side(ha, self._pier(), self._flip_limit_deg()))
 
     def _flip_limit_deg(self) -> float:
         meridian = self._meridian
@@ -450,7 +474,20 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
 
     def _goto(self, ra: float, dec: float) -> Motion:
         self._check_above_limits(ra, dec)
-        return self.motion.goto(ra, dec)
+        return self.flips.goto(ra, dec, self._keep_east_setting(ra))
+
+    def _keep_east_setting(self, ra: float) -> MeridianSettings | None:
+        """The temporary limit that keeps a mount on pierEast there in the flip zone (sky.kept_goto_side),
+        None where the mount's own setting gives the side DestinationSideOfPier promises."""
+        if self._altaz_mode():
+            return None
+        ha, side = sky.hour_angle(self._lst(), ra), self._pier()
+        limit = sky.side_limit_deg(ha, PierSide.EAST)
+        own = sky.goto_pier_side(ha, side, self._flip_limit_deg())
+        if limit is None or own is not PierSide.WEST or sky.kept_goto_side(ha, side, self._flip_limit_deg()) \
+                is not PierSide.EAST:
+            return None
+        return side_setting(limit)
 
     def _radec_from_altaz(self, azimuth: float, altitude: float) -> tuple[float, float]:
         ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
@@ -471,6 +508,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         tracking = bool(self.mount.state.tracking and self.mount.state.tracking.on)
         # With tracking off the pointing is frozen on the Alt/Az at the landing instant; with it on,
         # the slew ends at the instant the pointing passes the Alt/Az, and tracking carries on.
+        self.flips.restore_now()  # no slew runs under a pier flip's temporary meridian limit
         return self.motion.goto_fixed(ha, dec, MotionKind.ALTAZ, freeze=not tracking)
 
 

@@ -194,10 +194,17 @@ class Mechanics(ModelBase):
             return limit
         return max(limit, 1.0) if settings.track_after else 1.0
 
+    #: Which reading of the evidence the GOTO side follows (docs/meridian.md): False (the default,
+    #: the assumption) = a GOTO flips only past the track-past limit; True = at the meridian itself
+    #: (ASIAIR users' description), a negative limit still moving the line before the meridian.
+    goto_flip_at_meridian = False
+
     def _goto_limit_deg(self) -> float:
         """The limit handed to ``sky.goto_pier_side``: how far past the meridian the west side may go."""
         settings = self._persist.meridian
         limit = float(settings.limit_degrees)
+        if self.goto_flip_at_meridian:
+            return min(limit, 0.0)
         return limit if limit < 0.0 or settings.track_after else 0.0
 
     def _note_side(self) -> None:
