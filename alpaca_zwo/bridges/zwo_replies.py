@@ -13,7 +13,9 @@ or LX200 driver (INDI's ``indi_lx200am5``) shares the mount with Alpaca clients:
 
 Telescope refusals become the mount's own error codes (field notes §4.1): a target under the
 configured horizon profile or below altitude 0 is ``e5#``, under ``min_altitude_deg`` ``e6#``; a
-GOTO while a GOTO, home or park runs ``e3#`` (as the mount; INDI sends ``:Q#`` first); parked
+GOTO while a GOTO, home or park runs ``e3#`` (as the mount; INDI sends ``:Q#`` first), but a GOTO
+while the axes still brake from a stop is accepted and queued behind the braking (the mount would
+answer ``e3#``; the server does better, see the README's ZWO-port section); parked
 ``e4#`` (the emulator's guess, no published code); a sync while moving ``e4#``, and a sync the
 server refuses otherwise (not tracking) ``e11#``; a lost mount link gets no reply, as from a mount
 that is not there.
@@ -316,7 +318,9 @@ class ZwoResponder:
 
     def _goto(self, session: Session, _argument: str, _well_formed: bool) -> str | None:
         ra, dec = self._target(session)
-        if self._goto_running():
+        if self._goto_running() and not self.telescope.motion.stopping():
+            # A stop the server is finishing (INDI re-targets 100 ms after its :Q#) is no reason:
+            # the supervisor holds the GOTO until the axes have braked, then sends it.
             raise Refusal("e3#", "a GOTO, home or park is already running")
         try:
             self.telescope.slew_to_coordinates_async(ra, dec)

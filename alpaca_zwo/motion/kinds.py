@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 from ..clients import ClientKey
+from ..sky import SIDEREAL_DEG_S
 from ..wire_values import Direction
 
 log = logging.getLogger(__name__)
@@ -18,6 +19,9 @@ STATUS_LAG_S = 1.0
 MAX_MOTION_S = 600.0
 #: Braking deceleration of the axes (deg/s²): the emulator's, and the AM5's observed order of size.
 DECELERATION_DEG_S2 = 3.0
+#: The fastest an axis turns (1440x sidereal). Readings can suggest more (a slew through the pole
+#: turns the RA reading by 12 h at once), so speeds estimated from them are capped here.
+MAX_AXIS_DEG_S = 1440 * SIDEREAL_DEG_S
 #: Wall-clock period of the supervisor loop (real seconds).
 TICK_S = 0.1
 
@@ -32,6 +36,7 @@ class MotionKind(Enum):
 
 
 class Phase(Enum):
+    QUEUED = "queued"  # accepted (Slewing true); waiting for the motion it replaces to brake to rest
     MOVING = "moving"  # the mount is carrying out the command
     LANDING = "landing"  # fine correction: a residual pulse or waiting for the freeze instant
     SETTLING = "settling"  # commanded motion over; waiting for the readings to show rest
@@ -65,8 +70,17 @@ class Motion:
     brake_s: float = 0.0  # braking time predicted at the stop
     at_rest: float | None = None
     restore_tracking: bool | None = None  # set tracking to this at arrival (alt/az, park)
+    queued: bool = False  # it replaced a motion, so its command may meet the mount still braking
     done: threading.Event = field(default_factory=threading.Event)
-    error: str = ""
+    error: str = ""  # why it ended short: a failure, or one of INTERRUPTIONS
+
+
+#: ``Motion.error`` values for a motion that did not fail but was ended by a client, and what a
+#: synchronous caller is told (it must never read success: the mount is not where it asked).
+INTERRUPTIONS = {
+    "stopped": "it was stopped (AbortSlew, or a stop from another client) before it arrived",
+    "replaced": "another slew replaced it before it arrived",
+}
 
 
 @dataclass

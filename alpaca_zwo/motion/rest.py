@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from ..mount import Mount
 from ..mount_state import MountState
 from ..sky import SIDEREAL_HOURS_PER_S
-from .kinds import _wrap12
+from .kinds import MAX_AXIS_DEG_S, _wrap12
 
 log = logging.getLogger(__name__)
 
@@ -91,4 +91,6 @@ class RestMixin:
             if dt > 0:
                 d_ra, d_dec = _displacement(a, b)
                 speeds.append(max(abs(d_ra), abs(d_dec)) / dt)
-        return max(speeds, default=0.0)
+        # Capped: through the pole the RA reading jumps 12 h, which is no speed (it made the braking
+        # time of a stop after a slew from home ~4 minutes, and Slewing true all that time).
+        return min(max(speeds, default=0.0), MAX_AXIS_DEG_S)

@@ -41,6 +41,7 @@ from collections.abc import Callable
 
 from .. import sky
 from .._exceptions import (
+    ERR_INTERRUPTED,
     ERR_LINK,
     ERR_TIMEOUT,
     AlpacaError,
@@ -61,6 +62,7 @@ from ..mount_state import MountState
 from .guiding import GuidingMixin, TimedMove
 from .kinds import (
     DECELERATION_DEG_S2,
+    INTERRUPTIONS,
     MAX_MOTION_S,
     STATUS_LAG_S,
     TICK_S,
@@ -81,6 +83,10 @@ log = logging.getLogger(__name__)
 
 #: Real seconds between supervisor ticks while nothing moves (a Pi at the mount idles cheaply).
 IDLE_TICK_S = 1.0
+#: A GOTO that replaced a motion and meets ``e3#`` (the mount still braking) is sent again this
+#: often, for at most the braking time from full speed plus a margin (real seconds).
+BRAKED_RETRY_S = 0.2
+BRAKED_WITHIN_S = 4.0
 
 
 
@@ -128,6 +134,12 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
 
     def pulse_guiding(self) -> bool:
         return bool(self.pulses)
+
+    def stopping(self) -> bool:
+        """Only a stop the server is finishing (axes braking to rest): a new GOTO is queued behind
+        it, never refused because of it."""
+        motion = self.motion
+        return motion is not None and motion.kind is MotionKind.STOP
 
     def move_owners(self) -> list[ClientKey]:
         """The clients whose MoveAxis runs (the registry never evicts them); takes no lock."""
@@ -218,34 +230,52 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         return lambda: self.generation == generation
 
     def _begin(self, kind: MotionKind) -> Motion:
-        """Replace whatever moves now by a new motion (callers hold ``_start_lock``)."""
+        """Replace whatever moves now by a new motion (callers hold ``_start_lock``).
+
+        The new motion is installed at once, QUEUED, so Slewing stays true without a gap while the
+        one it replaces (a slew, a move, or a stop still braking) is stopped and brakes to rest;
+        an abort meanwhile ends it like any motion and this start raises."""
+        state = self.mount.state
         with self._lock:
             self.generation += 1
             generation = self.generation
-        self._stop_previous(generation)
-        with self._lock:
-            if self.generation != generation:
-                raise InvalidOperation(f"{kind.value} cancelled: a stop arrived while it was starting")
-            motion = Motion(kind, generation, self.mount.monotonic())
+            busy = (self.motion is not None or bool(self.moves) or bool(state.moving_axes)
+                    or state.goto_running or any(self.mount.drift_rates))
+            motion = Motion(kind, generation, self.mount.monotonic(), Phase.QUEUED, queued=busy)
             previous, self.motion = self.motion, motion
-            self.moves.clear()
         if previous is not None:
             previous.error = previous.error or "replaced"
             previous.done.set()
+        try:
+            if busy:
+                self._stop_previous(generation)
+        except AlpacaError:
+            self._withdraw(motion)
+            raise
+        with self._lock:
+            if self.generation != generation:
+                motion.done.set()
+                raise InvalidOperation(f"{kind.value} cancelled: a stop arrived while it was starting")
+            motion.started = self.mount.monotonic()
+            motion.phase = Phase.MOVING
         return motion
 
+    def _withdraw(self, motion: Motion) -> None:
+        with self._lock:
+            if self.motion is motion:
+                self.motion = None
+        motion.done.set()
+
     def _stop_previous(self, generation: int) -> None:
-        """A new slew replaces the running one: :Q#, then wait for the mount to drop its GOTO flag
-        (a GOTO during a GOTO gets e3#). The wait gives up at once if a stop arrives."""
-        state = self.mount.state
-        drifting = any(self.mount.drift_rates)
-        if self.motion is None and not self.moves and not state.moving_axes and not state.goto_running \
-                and not drifting:
-            return
+        """A new slew replaces the running one: :Q#, then wait for the mount to drop its GOTO flag,
+        which a ZWO mount holds until its axes have braked (a GOTO before then gets e3#). The wait
+        gives up at once if a stop arrives."""
         try:
             self.mount.stop()
         except LinkError as exc:
             raise driver_error("stopping the current motion", exc) from exc
+        with self._lock:
+            self.moves.clear()  # :Q# ended them: no watchdog or limit stop may cancel the queued start
         since = self.mount.monotonic()
         self.mount.refresh()
         idle = self.mount.wait_for(
@@ -257,10 +287,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             raise DriverError("the mount did not stop the previous motion", ERR_TIMEOUT)
 
     def _fail(self, motion: Motion, what: str, exc: Exception) -> AlpacaError:
-        with self._lock:
-            if self.motion is motion:
-                self.motion = None
-        motion.done.set()
+        self._withdraw(motion)
         if isinstance(exc, MotionCancelled):
             return InvalidOperation(f"{what} cancelled: a stop arrived while it was starting")
         return driver_error(what, exc)
@@ -295,7 +322,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
     def _send_goto(self, motion: Motion, ra: float, dec: float) -> None:
         guard = self._guard(motion.generation)
         try:
-            wire = self.mount.goto(ra, dec, guard=guard)
+            wire = self._goto_when_braked(motion, ra, dec, guard)
         except (LinkTimeout, AmbiguousReply) as exc:
             # The reply was lost or garbled, not necessarily the command: the mount may be slewing.
             # Keep the motion under supervision; the readings end it when they show the mount idle.
@@ -308,6 +335,20 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         motion.landing.wire = wire
         motion.landing.attempts += 1
         self._notify()
+
+    def _goto_when_braked(self, motion: Motion, ra: float, dec: float,
+                          guard: Callable[[], bool]) -> tuple[float, float]:
+        """Send the GOTO; if it replaced a motion and the mount answers e3# (still braking from the
+        stop), send it again until the braking is over. A stop meanwhile withdraws it (the guard)."""
+        deadline = time.monotonic() + BRAKED_WITHIN_S
+        while True:
+            try:
+                return self.mount.goto(ra, dec, guard=guard)
+            except MountReplyError as exc:
+                if exc.code != 3 or not motion.queued or time.monotonic() > deadline:
+                    raise
+            log.debug("%s: the mount is still braking (e3); sending the GOTO again", motion.kind.value)
+            time.sleep(BRAKED_RETRY_S)
 
     def home(self, kind: MotionKind = MotionKind.HOME) -> Motion:
         with self._start_lock:
@@ -350,7 +391,10 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         """Block until ``motion`` has ended (synchronous Alpaca slews)."""
         if not motion.done.wait(timeout):
             raise DriverError(f"the {motion.kind.value} did not finish in time", ERR_TIMEOUT)
-        if motion.error not in ("", "stopped", "replaced"):
+        if motion.error in INTERRUPTIONS:  # never success: the mount is not where this caller asked
+            raise DriverError(f"the {motion.kind.value} did not arrive: {INTERRUPTIONS[motion.error]}",
+                              ERR_INTERRUPTED)
+        if motion.error:
             raise DriverError(f"the {motion.kind.value} failed: {motion.error}", ERR_LINK)
 
 
@@ -423,6 +467,8 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             self.safety_stop(f"{motion.kind.value} overran")
             self._finish(motion)
             return
+        if motion.phase is Phase.QUEUED:
+            return  # its start is waiting for the motion it replaces to brake (``_begin``)
         if motion.phase is Phase.MOVING:
             self._tick_moving(motion, now, state)
         elif motion.phase is Phase.LANDING:

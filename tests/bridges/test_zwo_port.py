@@ -272,6 +272,29 @@ def test_alpacas_abort_stops_a_zwo_goto(server: AlpacaZwoServer, alpaca: AlpacaT
     assert sky.angular_separation(ra, dec, *target) > 5.0
 
 
+def test_a_goto_100_ms_after_a_stop_is_accepted_and_lands(server: AlpacaZwoServer, alpaca: AlpacaTelescope,
+                                                           zwo: ZwoClient) -> None:
+    """INDI's LX200 Goto during a slew (lx200telescope.cpp ``LX200Telescope::Goto``): ``:Q#``, 100 ms,
+    then ``:Sr :Sd :MS#``. The mount would still be braking (its answer would be ``e3#``); the port
+    queues the GOTO behind the braking and answers ``0``, and the emulator lands on the new target."""
+    emulator = server.emulators[0]
+    assert emulator is not None
+    model = emulator.model
+    lst = alpaca.SiderealTime
+    assert _goto(zwo, sky.wrap_hours_24(lst + 3.0), 10.0) == b"0"
+    until(lambda: max(abs(v) for v in model.snapshot()["velocity_deg_s"]) > 5.0, 10, "the GOTO at full speed")
+    assert zwo.silent(":Q#", window=0.1)  # INDI's abort, and its 100 ms sleep
+    assert model.snapshot()["braking"], "the emulator should still be braking when the new GOTO arrives"
+    ra = wire_values.parse_hms(wire_values.format_hms(sky.wrap_hours_24(lst - 1.0)))  # as :Sr carries it
+    target = (ra, 30.0)
+    assert _goto(zwo, *target) == b"0"
+    until(lambda: b"N" in zwo.ask(":GU#"), 30, "the new GOTO to end")
+    until(lambda: not alpaca.Slewing, 30, "the landing")
+    error = sky.angular_separation(*model.position(), *target) * 3600.0
+    assert error < 5.0, f"the emulator is {error:.0f}″ from the new target"
+    assert server.zwo_port.status()["refusals"] == 0
+
+
 def test_sync_and_targets_are_per_program(server: AlpacaZwoServer, alpaca: AlpacaTelescope, zwo: ZwoClient) -> None:
     other = ZwoClient(server.zwo_port.port)
     try:
