@@ -256,6 +256,34 @@ def test_bombs_in_every_action_parameter(live: LiveServer) -> None:
     assert not problems, "\n".join(problems[:40])
 
 
+#: Form values for every Alpaca parameter: each must be a 400 or an ASCOM error, never a 5xx.
+FORM_BOMBS = ["9" * 400, "-" + "9" * 400, "1e999", "nan", "-inf", "1e308", "4294967296", "\x00", "[" * 5000,
+              "x" * 20000]
+
+
+def test_bombs_in_every_alpaca_parameter(live: LiveServer) -> None:
+    """Every telescope member, each parameter (ClientID and ClientTransactionID too) set to each bomb."""
+    from alpaca_zwo.alpaca.members import DEVICE_MEMBERS
+
+    keeper = live.keeper
+    problems = []
+    for member in DEVICE_MEMBERS["telescope"]:
+        names = [p.name for p in member.params] + ["ClientID", "ClientTransactionID"]
+        for name in names:
+            for bomb in FORM_BOMBS:
+                fields = {p.name: "1" for p in member.params}
+                fields[name] = bomb
+                url = keeper.url(member.path)
+                reply = (keeper.session.put(url, data=fields, timeout=TIMEOUT) if member.verb == "PUT"
+                         else keeper.session.get(url, params=fields, timeout=TIMEOUT))
+                if reply.status_code >= 500 or leaks(reply.text, live):
+                    problems.append(f"{member.verb} {member.path} {name}={bomb[:12]!r}: {reply.status_code} "
+                                    f"{reply.text[:150]}")
+        if member.verb == "PUT":
+            restore(live)
+    assert not problems, "\n".join(problems[:40])
+
+
 @pytest.mark.parametrize("utc", ["0001-01-01T00:00:00+23:59", "9999-12-31T23:59:59-23:59",
                                  "0001-01-01T00:00:00.000Z", "2025-13-01T00:00:00Z", "\ud800"])
 def test_setup_time_out_of_range_is_a_400(live: LiveServer, utc: str) -> None:
