@@ -191,3 +191,24 @@ def test_zwo_port_gr_right_after_sg_is_for_the_new_site(server_factory: ServerFa
             assert abs(error) <= 1.5, f":Sg{longitude}# then :GR# {reply}: {error:+.0f} s of RA from the mount"
     finally:
         zwo.close()
+
+
+def test_a_mount_restart_forgets_the_sync_remainder(server_factory: ServerFactory) -> None:
+    """The mount forgets its sync at a power cycle; so must the server, or every later GOTO lands off
+    by the old remainder (here 0.48 s of RA, 7″ on the sky)."""
+    _server, api, model = _setup(server_factory)
+    api.ok("Tracking", Tracking=True)
+    slew(api, api.value("SiderealTime") + 1.5, 10.0)
+    here = (api.value("RightAscension"), api.value("Declination"))
+    solved = ((round(here[0] * 3600.0) + 20.48) / 3600.0, (round(here[1] * 3600.0) + 20.45) / 3600.0)
+    api.ok("SyncToCoordinates", RightAscension=solved[0], Declination=solved[1])
+    power_ups = model.snapshot()["power_ups"]
+    model.faults.reboot(0.5)
+    wait_until(lambda: model.snapshot()["power_ups"] > power_ups and model.snapshot()["initialized"], 30,
+               "the mount to restart and be given time and site again")
+    wait_until(lambda: api.value("AtHome") is True, 10, "the server to read the restarted mount at home")
+    api.ok("Tracking", Tracking=True)
+    target = ((round(api.value("SiderealTime") * 3600.0) + 1.5 * 3600 + 0.5) / 3600.0, 20.0)
+    slew(api, *target)  # after the restart the mount's frame is the only frame: its own reading is truth
+    d_ra, d_dec = error_arcsec(model.position(), target)
+    assert math.hypot(d_ra, d_dec) < 1.0, f"landed {d_ra:+.2f}″ RA {d_dec:+.2f}″ Dec off after the restart"
