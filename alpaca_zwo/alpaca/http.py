@@ -130,9 +130,12 @@ class _GuardedChannel(_ExpectContinueChannel):
     def received(self, data: bytes) -> bool:
         if self.request_started is None and data:
             self.request_started = time.time()
+        partial = self.request
         done: bool = super().received(data)
         if self.request is None:
             self.request_started = None  # every request received whole: idle until the next byte
+        elif partial is not None and self.request is not partial:
+            self.request_started = time.time()  # one finished and the next began in these bytes
         return done
 
     def writable(self) -> bool:
@@ -162,6 +165,7 @@ class HttpServer:
             "threads": threads,
             # Idle keep-alive connections are dropped after this long; clients poll far more often.
             "channel_timeout": channel_timeout,
+            "cleanup_interval": 10,  # how often waitress looks for idle channels (default 30 s)
             "connection_limit": connection_limit,
             # No reverse proxy is trusted, so X-Forwarded-* cannot spoof a client's address.
             "clear_untrusted_proxy_headers": True,

@@ -250,3 +250,21 @@ def test_systemd_unit_gives_descriptors_for_every_connection(tmp_path: Path) -> 
         path.write_text(generated.replace("User=pi\n", ""))
         verified = subprocess.run([analyze, "verify", str(path)], capture_output=True, text=True, timeout=60)
         assert "LimitNOFILE" not in verified.stdout + verified.stderr
+
+
+def test_idle_keep_alive_outlives_the_request_deadline(server_factory: ServerFactory) -> None:
+    """The 5 s deadline is for a request in progress: a keep-alive connection that waits longer between
+    requests (a client polling every 10 s) keeps working, as it did before."""
+    server = server_factory(make_settings())
+    request = b"GET /api/v1/telescope/0/connected?ClientID=3&ClientTransactionID=1 HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n"
+    with socket.create_connection(("127.0.0.1", server.port), timeout=GET_LIMIT_S) as sock:
+        for n in range(2):
+            if n:
+                time.sleep(REQUEST_TIMEOUT_S + 2)  # the scenario itself: a client idle longer than the deadline
+            sock.sendall(request)
+            reply = b""
+            while b"\r\n\r\n" not in reply or not reply.rstrip().endswith(b"}"):
+                chunk = sock.recv(4096)
+                assert chunk, "the server closed an idle keep-alive connection"
+                reply += chunk
+            assert reply.startswith(b"HTTP/1.1 200")
