@@ -443,3 +443,45 @@ def test_goto_pier_side_rejects_limits_outside_the_mount_range(limit: float) -> 
 
 def test_goto_pier_side_unknown_for_non_finite_target() -> None:
     assert sky.goto_pier_side(math.nan, PierSide.EAST, 0.0) is PierSide.UNKNOWN
+
+
+# --- pier flips (docs/meridian.md) ----------------------------------------------------------------
+
+
+def _line(limit: int, track_past: bool, at_meridian: bool) -> float:
+    """The flip line a mount with this :STa setting uses: A1 (the limit) or A2 (the meridian)."""
+    if at_meridian:
+        return min(float(limit), 0.0)
+    return float(limit) if limit < 0 or track_past else 0.0
+
+
+@given(st.floats(-12.0, 12.0), st.sampled_from([PierSide.EAST, PierSide.WEST]), st.booleans())
+def test_side_limit_lands_the_goto_on_the_side_asked_for(ha: float, side: PierSide, at_meridian: bool) -> None:
+    """Under the temporary limit a GOTO lands on the side asked for, under both readings of the
+    evidence, also after the target's HA has grown by the margin (slew and landing)."""
+    limit = sky.side_limit_deg(ha, side)
+    ha_deg = sky.wrap_hours_12(ha) * 15.0
+    if limit is None:
+        assert (ha_deg < -sky.FLIP_ZONE_DEG) if side is PierSide.EAST else (ha_deg > 13.0 - 1e-9)
+        return
+    assert -15 <= limit <= 15
+    if side is PierSide.WEST and ha_deg >= 0.0 and at_meridian:
+        return  # A2 cannot keep pierWest past the meridian: the one case no limit reaches
+    line = _line(limit, limit > 0, at_meridian)
+    for later in (0.0, sky.FLIP_MARGIN_DEG * 0.99 / 15.0):
+        later_deg = sky.wrap_hours_12(ha + later) * 15.0
+        if side is PierSide.WEST and (later_deg >= 15.0 or (at_meridian and later_deg >= 0.0)):
+            continue  # past what pierWest can reach (15°; A2: the meridian)
+        assert sky.goto_pier_side(ha + later, PierSide.UNKNOWN, line) is side, (ha, later, limit, line)
+
+
+@pytest.mark.parametrize(("ha_deg", "current", "expected"), [
+    (0.3, PierSide.EAST, PierSide.EAST),     # just flipped: the next GOTO keeps pierEast
+    (0.3, PierSide.WEST, PierSide.WEST),     # the mount's own rule inside "track past 5°"
+    (-10.0, PierSide.EAST, PierSide.EAST),   # inside the zone before the meridian
+    (-16.0, PierSide.EAST, PierSide.WEST),   # outside it: the mount's own choice
+    (6.0, PierSide.WEST, PierSide.EAST),     # past the limit
+    (-30.0, PierSide.EAST, PierSide.WEST),   # ConformU's DestinationSideOfPier at HA -2 h from HA +3 h
+])
+def test_kept_goto_side_keeps_east_in_the_flip_zone(ha_deg: float, current: PierSide, expected: PierSide) -> None:
+    assert sky.kept_goto_side(ha_deg / 15.0, current, 5.0) is expected
