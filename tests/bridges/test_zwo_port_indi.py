@@ -130,6 +130,25 @@ def test_an_abort_from_either_side_stops_both(indi: IndiServer, alpaca: AlpacaTe
     assert abs(dec - alpaca.Declination) < 2 / 3600  # both see it where it stopped (RA drifts untracked)
 
 
+def test_indi_retargets_during_its_own_goto(indi: IndiServer, alpaca: AlpacaTelescope,
+                                            server: AlpacaZwoServer) -> None:
+    """KStars' "slew to" during a slew: INDI's ``LX200Telescope::Goto`` sends ``:Q#``, sleeps 100 ms
+    and sends ``:Sr :Sd :MS#`` while the mount still brakes. The port must take that GOTO (queued
+    behind the braking), so the mount lands on the new target and INDI sees its slew end, not fail."""
+    model = server.emulators[0].model
+    first = (_east(alpaca, -3.0), 10.0)
+    indi.set("ON_COORD_SET.TRACK=On")
+    indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={first[0]};{first[1]}")
+    wait_until(lambda: max(abs(v) for v in model.snapshot()["velocity_deg_s"]) > 3.0, 10, "INDI's GOTO at speed")
+    wait_until(lambda: indi.coords()[2] == "Busy", 10, "INDI to know it is slewing (so it aborts first)")
+    second = (_east(alpaca, 2.0), 30.0)
+    indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={second[0]};{second[1]}")
+    wait_until(lambda: not model.slewing() and sky.angular_separation(*model.position(), *second) < 10 / 3600,
+               60, "the mount to land on INDI's second target")  # INDI's :Sr has whole seconds
+    wait_until(lambda: indi.coords()[2] == "Ok", 20, "INDI to see its second GOTO end")
+    assert server.zwo_port.status()["refusals"] == 0
+
+
 def test_indi_goto_below_the_configured_horizon_is_refused(indi: IndiServer, alpaca: AlpacaTelescope,
                                                            server: AlpacaZwoServer) -> None:
     before = (alpaca.RightAscension, alpaca.Declination)
