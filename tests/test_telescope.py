@@ -435,7 +435,7 @@ _EITHER_OK_OR_407 = {
     "TargetRightAscension",
 }
 _NOT_IMPLEMENTED_GETS = {"ApertureArea", "ApertureDiameter", "FocalLength"}
-_NOT_IMPLEMENTED_PUTS = {"SideOfPier"}
+_NOT_IMPLEMENTED_PUTS: set[str] = set()  # SideOfPier flips in equatorial mode (tests/test_meridian_flip.py)
 _COMMANDS = {"CommandBlind", "CommandBool", "CommandString"}
 
 
@@ -488,6 +488,8 @@ def parked_cases() -> list[Case]:
         case("PUT", "SyncToTarget", PARKED),
         case("PUT", "SyncToAltAz", PARKED, **alt_az),
         case("PUT", "Tracking", PARKED, Tracking=True),
+        case("PUT", "SideOfPier", PARKED, SideOfPier=0),
+        case("PUT", "SideOfPier", PARKED, SideOfPier=1),
         # What must still work while parked.
         case("PUT", "Tracking", OK, Tracking=False),
         case("PUT", "Park", OK),
@@ -504,8 +506,6 @@ def not_implemented_cases() -> list[Case]:
         case("GET", "ApertureArea", NOT_IMPLEMENTED),
         case("GET", "ApertureDiameter", NOT_IMPLEMENTED),
         case("GET", "FocalLength", NOT_IMPLEMENTED),
-        case("PUT", "SideOfPier", NOT_IMPLEMENTED, SideOfPier=0),
-        case("PUT", "SideOfPier", NOT_IMPLEMENTED, SideOfPier=1),
         case("PUT", "DoesRefraction", NOT_IMPLEMENTED, DoesRefraction=True),
         case("PUT", "MoveAxis", NOT_IMPLEMENTED, Axis=2, Rate=0.0),  # CanMoveAxis(2) is false
         case("PUT", "CommandBlind", NOT_IMPLEMENTED, Command=":Q#", Raw=True),
@@ -529,6 +529,8 @@ def invalid_value_cases() -> list[Case]:
         c("PUT", "SiteLongitude", INVALID_VALUE, SiteLongitude=180.5),
         c("PUT", "SiteLongitude", INVALID_VALUE, SiteLongitude=-181.0),
         c("PUT", "SiteElevation", INVALID_VALUE, SiteElevation=-301.0),
+        c("PUT", "SideOfPier", INVALID_VALUE, SideOfPier=2),
+        c("PUT", "SideOfPier", INVALID_VALUE, SideOfPier=-1),
         c("PUT", "SiteElevation", INVALID_VALUE, SiteElevation=10001.0),
         c("PUT", "TargetRightAscension", INVALID_VALUE, TargetRightAscension=-0.1),
         c("PUT", "TargetRightAscension", INVALID_VALUE, TargetRightAscension=24.0),
@@ -636,6 +638,7 @@ def test_every_member_answers_with_a_valid_envelope(server: AlpacaZwoServer, url
     api.ok("SyncToAltAz", Azimuth=api.value("Azimuth"), Altitude=api.value("Altitude"))
     api.ok("MoveAxis", Axis=0, Rate=0.0)
     api.ok("Tracking", Tracking=True)
+    api.ok("SideOfPier", SideOfPier=api.value("SideOfPier"))  # the side held: nothing moves
     api.ok("PulseGuide", Direction=0, Duration=100)
     wait_until(lambda: api.value("IsPulseGuiding") is False, 10, "the pulse to end")
     api.ok("AbortSlew")
@@ -694,7 +697,6 @@ def test_not_connected_after_the_last_client_disconnects(server: AlpacaZwoServer
 
 def test_lacking_capabilities_report_false_and_answer_0x400(server: AlpacaZwoServer, api: Api,
                                                             transport_kind: str) -> None:
-    assert api.value("CanSetPierSide") is False
     assert api.value("CanMoveAxis", Axis=2) is False
     assert api.value("AxisRates", Axis=2) == []
     assert api.value("DeclinationRate") == 0.0
@@ -707,7 +709,7 @@ def test_lacking_capabilities_report_false_and_answer_0x400(server: AlpacaZwoSer
 def test_implemented_capabilities_report_true(api: Api) -> None:
     for name in ("CanFindHome", "CanPark", "CanPulseGuide", "CanSetGuideRates", "CanSetPark", "CanSetTracking",
                  "CanSlew", "CanSlewAltAz", "CanSlewAltAzAsync", "CanSlewAsync", "CanSync", "CanSyncAltAz",
-                 "CanUnpark", "CanSetRightAscensionRate", "CanSetDeclinationRate"):
+                 "CanUnpark", "CanSetRightAscensionRate", "CanSetDeclinationRate", "CanSetPierSide"):
         assert api.value(name) is True, name
     assert api.value("CanMoveAxis", Axis=0) is True
     assert api.value("CanMoveAxis", Axis=1) is True
@@ -1761,8 +1763,9 @@ def test_alpyca_session(server: AlpacaZwoServer, model: MountModel) -> None:
     scope.TrackingRate = alpyca_telescope.DriveRates.driveSidereal
     with pytest.raises(alpyca_exceptions.InvalidValueException):
         scope.TargetDeclination = 100.0
-    with pytest.raises(alpyca_exceptions.NotImplementedException):
-        scope.SideOfPier = alpyca_telescope.PierSide.pierEast
+    with pytest.raises(alpyca_exceptions.InvalidOperationException):
+        scope.SideOfPier = alpyca_telescope.PierSide.pierEast  # 3 h east of the meridian: pierWest only
+    assert scope.Slewing is False
     scope.Park()
     wait_until(lambda: scope.Slewing is False, MOTION_TIMEOUT_S, "alpyca park")
     assert scope.AtPark is True
