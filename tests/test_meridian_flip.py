@@ -150,3 +150,42 @@ def configured_meridian(rig: Rig) -> tuple[bool, int]:
     """The configured (track past, limit) of this rig's server, as written to the mount."""
     limits = rig.server.store.settings.limits
     return limits.meridian_track_past, round(limits.meridian_limit_deg)
+
+
+@pytest.fixture
+def rig5(server_factory: ServerFactory) -> Iterator[Rig]:
+    """One rig with "track past 5°" and the default GOTO rule (A1)."""
+    settings = make_settings(emulator=EmulatorSettings(speed=1.0, baud=0),
+                             limits=LimitSettings(meridian_track_past=True, meridian_limit_deg=5))
+    server = server_factory(settings)
+    model = server.emulators[0].model
+    assert model is not None
+    scope = AlpycaTelescope(f"127.0.0.1:{server.port}", 0)
+    scope.Connected = True
+    yield Rig(server, scope, model, False)
+
+
+def test_side_of_pier_write_is_a_slew_that_aborts_and_always_restores_the_meridian_setting(rig5: Rig) -> None:
+    """Writing the side held does nothing; a flip is Slewing at once, AbortSlew stops it, and the mount's
+    own meridian setting is back after the abort and when the server stops in the middle of a flip."""
+    rig = rig5
+    own = {"flip": False, "track_after": True, "limit_degrees": 5}
+    _tracked_past_the_meridian(rig)
+    link = rig.server.telescopes[0].mount.link
+    start = len(link.trace())
+    rig.scope.SideOfPier = PierSide.pierWest  # already there
+    assert not rig.scope.Slewing
+    assert not any(entry.request.startswith(":STa") or entry.request == ":MS#" for entry in link.trace()[start:])
+
+    rig.scope.SideOfPier = PierSide.pierEast
+    assert rig.scope.Slewing, "a SideOfPier write is a slew"
+    assert rig.truth()["meridian"] == {"flip": False, "track_after": False, "limit_degrees": 0}
+    rig.scope.AbortSlew()
+    rig.wait_at_rest("the aborted flip")
+    wait_until(lambda: rig.truth()["meridian"] == own, 5.0, "the meridian setting back after AbortSlew")
+    assert rig.truth()["slew"] is None
+
+    rig.scope.SideOfPier = PierSide.pierEast  # again, and the server stops in the middle of it
+    assert rig.truth()["meridian"]["limit_degrees"] == 0  # type: ignore[index]
+    rig.server.stop()
+    assert rig.truth()["meridian"] == own, "the server closed the link with the flip's limit on the mount"
