@@ -17,9 +17,10 @@ from typing import Any
 import pytest
 import requests
 
+from alpaca_zwo.config import ServerSettings
 from alpaca_zwo.emulator import EmulatorServer
 from alpaca_zwo.server import AlpacaZwoServer
-from tests.conftest import ServerFactory
+from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient, wait_until
 
 HEADERS = {"X-Alpaca-Zwo": "1", "Content-Type": "application/json"}
@@ -154,3 +155,19 @@ def test_change_behind_the_servers_back_shows_within_the_refresh_period(
     view = wait_until(lambda: (v := _mount_view(client))["buzzer"] == 0 and v, timeout=1.5 + 2 * mount.poll_slow_s + 3,
                       what="the app's change on the page")
     assert view["upper_limit"] == 75
+
+
+def test_raw_command_through_the_server_shows_at_the_next_poll(server_factory: ServerFactory) -> None:
+    """A setting changed by a raw command (Alpaca CommandBlind; the shared ZWO port's allowed commands
+    take the same path) marks the copy stale: the page shows it a poll later, not after the 60 s period."""
+    server = server_factory(make_settings(server=ServerSettings(host="127.0.0.1", port=0, discovery_port=0,
+                                                                allow_raw_commands=True)))
+    client = AlpacaClient(f"http://127.0.0.1:{server.port}", 77, timeout=TIMEOUT, call_timeout=TIMEOUT)
+    client.command("connected", Connected="true")
+    mount = server.telescopes[0].mount
+    assert mount.settings_cache.refresh_s == 60.0
+    assert _mount_view(client)["heavy_duty"] is False
+    client.command("commandblind", Command=":SRl720#", Raw="true")
+    assert _emulator(server).model.max_speed() == 720
+    wait_until(lambda: _mount_view(client)["heavy_duty"] is True, timeout=2 * mount.poll_slow_s + 3,
+               what="the raw command's change on the page")
