@@ -100,7 +100,7 @@ def _timing_summary(timings: list[Timing]) -> str:
     return "\n".join(lines)
 
 
-@pytest.mark.timeout(540)
+@pytest.mark.timeout(780)  # equatorial: + the SideOfPier write test's 7 emulated minutes through the meridian
 @pytest.mark.parametrize("mode", MODES)
 def test_conformu_conformance(server_factory: ServerFactory, conformu_client_id: None, mode: str) -> None:
     """``conformu conformance http://127.0.0.1:<port>/api/v1/telescope/0`` must report 0 errors, 0 issues,
