@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import pytest
 import requests
-from alpaca.exceptions import InvalidOperationException
+from alpaca.exceptions import InvalidOperationException, NotImplementedException
 from alpaca.telescope import AlignmentModes, GuideDirections, PierSide, TelescopeAxes
 from alpaca.telescope import Telescope as AlpycaTelescope
 
@@ -91,6 +91,8 @@ def test_alignment_mode_and_capabilities(rig: Rig) -> None:
     assert scope.SideOfPier == PierSide.pierUnknown
     assert scope.DestinationSideOfPier(_ra_at_ha(scope, 2.0), 40.0) == PierSide.pierUnknown
     assert scope.DestinationSideOfPier(_ra_at_ha(scope, -2.0), 40.0) == PierSide.pierUnknown
+    with pytest.raises(NotImplementedException):  # no pier side to set (ConformU: MustNotBeImplemented)
+        scope.SideOfPier = PierSide.pierEast
     assert scope.IsPulseGuiding is False
     names = {item["Name"] for item in scope.DeviceState}
     assert "IsPulseGuiding" in names and "SideOfPier" in names
