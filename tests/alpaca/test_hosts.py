@@ -1,7 +1,7 @@
 """The DNS-rebinding guard's decision (``alpaca_zwo.alpaca.hosts``), with a fixed hostname.
 
 HTTP behaviour (which requests are judged, the 403, the emulator's truth) is in
-``tests/faults/test_rebinding.py``; the real browser in ``tests/browser/test_rebinding.py``.
+``tests/faults/test_rebinding.py``; the real browser in ``tests/browser/test_page_rebinding.py``.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ and ``Origin: http://evil.example:PORT``, which agree, so same-origin checks pas
 exactly those headers (``http.client`` with ``skip_host``), judges the mount by the emulator's truth
 and the settings by the file's bytes, and checks that the names real clients use still work.
 The decision table itself is in ``tests/alpaca/test_hosts.py``; a real browser in
-``tests/browser/test_rebinding.py``.
+``tests/browser/test_page_rebinding.py``.
 """
 
 from __future__ import annotations
