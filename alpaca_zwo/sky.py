@@ -319,14 +319,15 @@ def side_limit_deg(target_ha_hours: float, side: PierSide) -> int | None:
 
 def kept_goto_side(target_ha_hours: float, current_side: PierSide, meridian_limit_deg: float) -> PierSide:
     """The pier side a GOTO through this server lands on: the mount's own choice
-    (:func:`goto_pier_side`), except that a mount on EAST stays there for targets in the flip zone
-    (from :data:`FLIP_ZONE_DEG` east of the meridian up to the limit), where the mount alone would
-    swing back to WEST. That keeps a SideOfPier flip made just past the meridian through the GOTO a
-    client sends next (N.I.N.A. writes SideOfPier, then slews to the same target), and it is the
-    hysteresis of other German mounts' flip zones. The server gets it by a temporary :STa limit
+    (:func:`goto_pier_side`), except that a mount on EAST stays there for targets past the meridian
+    but short of the limit, where the mount alone would swing back to WEST. That keeps a SideOfPier
+    flip made just past the meridian through the GOTO a client sends next (N.I.N.A. writes
+    SideOfPier, then slews to the same target). Not before the meridian: a mount kept on EAST there
+    points counterweight-up, and the mount refuses a sync on that side of the meridian (e9), so a
+    plate-solve centring after such a GOTO would fail. The server gets it by a temporary :STa limit
     (:func:`side_limit_deg`)."""
     side = goto_pier_side(target_ha_hours, current_side, meridian_limit_deg)
-    if side is PierSide.WEST and current_side is PierSide.EAST \
-            and side_limit_deg(target_ha_hours, PierSide.EAST) is not None:
+    if side is PierSide.WEST and current_side is PierSide.EAST and math.isfinite(target_ha_hours) \
+            and wrap_hours_12(target_ha_hours) >= 0.0:
         return PierSide.EAST
     return side

@@ -477,7 +477,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return self.flips.goto(ra, dec, self._keep_east_setting(ra))
 
     def _keep_east_setting(self, ra: float) -> MeridianSettings | None:
-        """The temporary limit that keeps a mount on pierEast there in the flip zone (sky.kept_goto_side),
+        """The temporary limit that keeps a mount on pierEast there past the meridian (sky.kept_goto_side),
         None where the mount's own setting gives the side DestinationSideOfPier promises."""
         if self._altaz_mode():
             return None

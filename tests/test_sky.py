@@ -470,6 +470,8 @@ def test_side_limit_lands_the_goto_on_the_side_asked_for(ha: float, side: PierSi
     line = _line(limit, limit > 0, at_meridian)
     for later in (0.0, sky.FLIP_MARGIN_DEG * 0.99 / 15.0):
         later_deg = sky.wrap_hours_12(ha + later) * 15.0
+        if later_deg < ha_deg:
+            continue  # the HA wrapped through 12 h (the lower meridian): another question
         if side is PierSide.WEST and (later_deg >= 15.0 or (at_meridian and later_deg >= 0.0)):
             continue  # past what pierWest can reach (15°; A2: the meridian)
         assert sky.goto_pier_side(ha + later, PierSide.UNKNOWN, line) is side, (ha, later, limit, line)
@@ -478,10 +480,12 @@ def test_side_limit_lands_the_goto_on_the_side_asked_for(ha: float, side: PierSi
 @pytest.mark.parametrize(("ha_deg", "current", "expected"), [
     (0.3, PierSide.EAST, PierSide.EAST),     # just flipped: the next GOTO keeps pierEast
     (0.3, PierSide.WEST, PierSide.WEST),     # the mount's own rule inside "track past 5°"
-    (-10.0, PierSide.EAST, PierSide.EAST),   # inside the zone before the meridian
-    (-16.0, PierSide.EAST, PierSide.WEST),   # outside it: the mount's own choice
+    (4.9, PierSide.EAST, PierSide.EAST),     # up to the limit
+    (-0.3, PierSide.EAST, PierSide.WEST),    # before the meridian: the mount's own choice (a sync there is e9)
+    (-10.0, PierSide.EAST, PierSide.WEST),
     (6.0, PierSide.WEST, PierSide.EAST),     # past the limit
     (-30.0, PierSide.EAST, PierSide.WEST),   # ConformU's DestinationSideOfPier at HA -2 h from HA +3 h
 ])
-def test_kept_goto_side_keeps_east_in_the_flip_zone(ha_deg: float, current: PierSide, expected: PierSide) -> None:
+def test_kept_goto_side_keeps_east_past_the_meridian_up_to_the_limit(
+        ha_deg: float, current: PierSide, expected: PierSide) -> None:
     assert sky.kept_goto_side(ha_deg / 15.0, current, 5.0) is expected

@@ -2,7 +2,7 @@
 
 The mount chooses the pier side of a GOTO itself, from the target's hour angle and its meridian
 setting (``:STa``; the evidence and the assumption are in docs/meridian.md), and has no command to
-flip. So a SideOfPier write, and a GOTO that must keep pierEast in the flip zone, write a meridian
+flip. So a SideOfPier write, and a GOTO that must keep pierEast past the meridian, write a meridian
 limit under which the mount takes the wanted side, run the GOTO through the supervisor like any
 other (horizon limits, aborts, landing, Slewing), and put the mount's own setting back when that
 motion ends however it ends (arrived, aborted, replaced, failed). A GOTO that needs no temporary
