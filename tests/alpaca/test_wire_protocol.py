@@ -500,7 +500,8 @@ def test_exploding_handler_is_500_and_server_keeps_serving(alpaca: Alpaca,
     alpaca.device.faults["slewing"] = RuntimeError("boom")
     with caplog.at_level(logging.ERROR, logger="alpaca_zwo.alpaca"):
         r = alpaca.http_get("slewing", OK_IDS)
-    assert "RuntimeError: boom" in assert_text(r, 500)
+    body = assert_text(r, 500)
+    assert "RuntimeError" in body and "boom" not in body  # the type only: the text may hold internals
     assert any(rec.exc_info and "boom" in str(rec.exc_info[1]) for rec in caplog.records)
     assert_json(alpaca.http_get("canslew", OK_IDS), ctid=CTID)
     r = alpaca.http_put("abortslew", OK_IDS)
