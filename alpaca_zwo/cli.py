@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import logging
 import signal
 import sys
@@ -14,7 +15,7 @@ from ._exceptions import AlpacaZwoError, ConfigError
 from .config import Settings
 from .config_file import default_config_path, load_settings, remove_stale_temp_files
 from .devices import DeviceError, check_device, find_mount, format_candidates, list_candidates
-from .listen_check import listen_problem
+from .listen_check import host_problem, listen_problem, port_in_use
 from .server import AlpacaZwoServer, Overrides
 from .service import KINDS, render
 from .store import SettingsStore
@@ -131,6 +132,19 @@ def _install_stop_handlers(stop: threading.Event) -> None:
             signal.signal(getattr(signal, name), on_signal)
 
 
+def _port_taken(port: int, where: str) -> str:
+    """The port is held by another listener: most often this same server started twice, so say how to
+    reach that one, and how to start this one elsewhere."""
+    other = 11112 if port == 11111 else 11111
+    return (f"server.port {port} is in use (set by {where}): is alpaca-zwo already running? "
+            f"open http://127.0.0.1:{port}/setup; or start on another port with --port {other}")
+
+
+def _where(args: argparse.Namespace, path: Path) -> str:
+    """Where the listening address was set: on the command line or in the config file."""
+    return "--host/--port" if args.host is not None or args.port is not None else f"[server] in {path}"
+
+
 def _listen_problem(args: argparse.Namespace, settings: Settings, path: Path) -> str | None:
     """One line saying why the HTTP server could not listen where it is told to, and where that is set."""
     host = args.host if args.host is not None else settings.server.host
@@ -138,7 +152,9 @@ def _listen_problem(args: argparse.Namespace, settings: Settings, path: Path) ->
     problem = listen_problem(host, port)
     if problem is None:
         return None
-    where = "--host/--port" if args.host is not None or args.port is not None else f"[server] in {path}"
+    where = _where(args, path)
+    if host_problem(host) is None and port_in_use(host, port):
+        return _port_taken(port, where)
     return f"{problem} (set by {where})"
 
 
@@ -184,7 +200,10 @@ def server_main(argv: list[str] | None = None) -> int:
     try:
         server.start()
     except (AlpacaZwoError, OSError, ValueError) as exc:  # waitress: ValueError for a host it cannot use
-        print(f"alpaca-zwo: cannot start: {exc}", file=sys.stderr)
+        taken = isinstance(exc, OSError) and exc.errno == errno.EADDRINUSE  # taken since the check above
+        port = server.settings.server.port if args.port is None else args.port
+        reason = _port_taken(port, _where(args, path)) if taken else exc
+        print(f"alpaca-zwo: cannot start: {reason}", file=sys.stderr)
         server.stop()
         return 1
     print(f"alpaca-zwo {__version__} serving (config: {path})", flush=True)

@@ -121,8 +121,16 @@ class DeviceFacade:
         return self._telescope.unique_id
 
     @property
+    def emulated(self) -> bool:
+        """This device drives the built-in emulator (no URL given by --device or the config)."""
+        emulators = self._server.emulators
+        return self.index < len(emulators) and emulators[self.index] is not None
+
+    @property
     def url(self) -> str:
-        return self._server.settings.devices[self.index].url
+        """The mount this device really drives ('' for the built-in emulator): --device wins over the
+        config's URL, as at start, so the page never calls a real mount "the built-in emulator"."""
+        return "" if self.emulated else self._telescope.mount.link.url
 
     @property
     def running(self) -> bool:

@@ -90,6 +90,14 @@ def port_problem(host: str, port: int, current_port: int | None = None) -> str |
     return None
 
 
+def port_in_use(host: str, port: int) -> bool:
+    """Another listener holds ``port`` on an address ``host`` names (``host`` must pass :func:`host_problem`)."""
+    if port == 0:
+        return False
+    errors = (_bind(family, address, port) for family, address in _addresses(host))
+    return any(error is not None and error.errno == errno.EADDRINUSE for error in errors)
+
+
 def listen_problem(host: str, port: int, current_port: int | None = None) -> str | None:
     """The first reason ``host:port`` cannot be listened on, or None."""
     return host_problem(host) or port_problem(host, port, current_port)

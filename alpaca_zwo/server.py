@@ -23,6 +23,7 @@ from .clients import ClientRegistry
 from .config import DeviceSettings, Settings
 from .facade import ServerFacade
 from .link import Link
+from .local_addresses import page_urls
 from .mount import Mount, utc_now
 from .store import SettingsStore
 from .telescope import Telescope
@@ -230,6 +231,8 @@ class AlpacaZwoServer:
         lines = [f"Alpaca API:   {base}/api/v1/telescope/{i}/" for i in range(len(self.telescopes))]
         lines.append(f"Setup page:   {base}/setup")
         if host in ("0.0.0.0", "::", ""):
+            # From a phone or another computer: this machine's LAN addresses and its .local name.
+            lines += [f"              {url}" for url in page_urls(host, self.port)]
             lines.append(f"(listening on all interfaces, port {self.port})")
         if self.discovery is not None:
             lines.append(f"Discovery:    UDP port {self.discovery.port}")

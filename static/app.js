@@ -132,8 +132,11 @@
     return (p.sign === "-" ? "\u2212" : "+") + pad(p.whole, 2) + "\u00b0 " + p.minutes + "\u2032 " + p.seconds + "\u2033";
   }
 
-  function fmtAngle(d) {
-    return d === null || d === undefined ? "\u2013" : d.toFixed(2) + "\u00b0";
+  // Azimuth 0-360 in degrees, minutes, seconds (like RA/Dec; altitude uses fmtDeg).
+  function fmtAz(d) {
+    if (d === null || d === undefined) return "\u2013";
+    const p = sexagesimal(((d % 360) + 360) % 360, 360, 0);
+    return pad(p.whole, 3) + "\u00b0 " + p.minutes + "\u2032 " + p.seconds + "\u2033";
   }
 
   function fmtDuration(seconds) {
@@ -304,8 +307,8 @@
     setText("device-name", "\u2014 " + s.name);
     setText("ra", pos ? fmtHours(pos.ra) : "\u2013", "big");
     setText("dec", pos ? fmtDeg(pos.dec) : "\u2013", "big");
-    setText("alt", pos ? fmtAngle(pos.alt) : "\u2013", pos && pos.below_limit ? "big bad" : "big");
-    setText("az", pos ? fmtAngle(pos.az) : "\u2013", "big");
+    setText("alt", pos ? fmtDeg(pos.alt) : "\u2013", pos && pos.below_limit ? "big bad" : "big");
+    setText("az", pos ? fmtAz(pos.az) : "\u2013", "big");
     setText("lst", fmtHours(s.time.lst));
     setText("ha", pos ? fmtHa(pos.ha) : "\u2013");
 
@@ -330,14 +333,16 @@
       : "flip line " + Math.abs(m.limit_deg) + "\u00b0 " + (m.limit_deg > 0 ? "past" : "before") + " the meridian";
     if (m.minutes_to_limit !== null) mer += m.minutes_to_limit >= 0 ? "; reached in " + fmtMinutes(m.minutes_to_limit) : "; passed " + fmtMinutes(-m.minutes_to_limit) + " ago";
     setText("meridian", mer);
-    setText("mount", s.mount ? "ZWO " + s.mount.model + ", firmware " + s.mount.firmware + (s.flags.mode ? ", " + s.flags.mode : "") : "\u2013");
+    // Name what is really driven: the built-in emulator, or the mount at the --device/config URL.
+    const driven = s.link.emulated ? "built-in emulator" : s.link.url;
+    setText("mount", (s.mount ? "ZWO " + s.mount.model + ", firmware " + s.mount.firmware + (s.flags.mode ? ", " + s.flags.mode : "") + " \u2014 " : "") + driven);
 
     const link = s.link;
     let linkText = link.state;
     if (link.state === "connected" && !s.initialised) linkText += ", initialising";
     if (link.reconnects) linkText += ", " + link.reconnects + " reconnect" + (link.reconnects > 1 ? "s" : "");
     if (link.last_error) linkText += " \u2014 " + link.last_error;
-    setText("link", linkText + " (" + link.url + ")", link.state === "connected" ? "" : link.state === "closed" ? "" : "bad");
+    setText("link", linkText + " (" + (link.emulated ? "built-in emulator" : link.url) + ")", link.state === "connected" ? "" : link.state === "closed" ? "" : "bad");
     const age = pos ? pos.age_s : null;
     setText("age", age === null ? "\u2013" : fmtDuration(age) + (s.link.poll_error ? " \u2014 " + s.link.poll_error : ""), age !== null && age > 5 && s.connected ? "bad" : "");
     const utc = s.time.utc.replace("T", " ").replace(/\.\d+Z$/, " UTC");
@@ -578,11 +583,24 @@
     $("btn-geo").addEventListener("click", useBrowserLocation);
   }
 
+  // Browsers give their location only to secure pages (https, or localhost on this machine); this
+  // page is usually opened as http://<address>:11111 from a phone, so say so and what to do instead.
+  function geoNote(text) {
+    const note = $("geo-note");
+    note.textContent = text;
+    note.classList.toggle("hidden", !text);
+  }
+
+  const GEO_INSTEAD = " Instead, type the latitude and longitude above (degrees; longitude east positive), " +
+    "or copy them from your phone's GPS or compass app (or long-press your position in a map app), then press Save site.";
+
   function useBrowserLocation() {
     if (!navigator.geolocation || !window.isSecureContext) {
-      message("This browser only shares its location with https pages or localhost; enter the site by hand.");
+      geoNote("Browsers share their location only with pages opened over https or as localhost on the same " +
+        "machine, and this page is " + location.origin + ", so this browser will not tell it." + GEO_INSTEAD);
       return;
     }
+    geoNote("");
     navigator.geolocation.getCurrentPosition(
       (p) => {
         $("site-lat").value = p.coords.latitude.toFixed(6);
@@ -590,7 +608,8 @@
         if (p.coords.altitude !== null) $("site-elev").value = p.coords.altitude.toFixed(0);
         message("Location filled in from this browser; press Save site to use it.", "info");
       },
-      (err) => message("The browser did not give its location: " + err.message),
+      (err) => geoNote((err.code === 1 ? "This browser was not allowed to share its location."
+        : "This browser could not find its location (" + err.message + ").") + GEO_INSTEAD),
       { enableHighAccuracy: true, timeout: 20000 }
     );
   }

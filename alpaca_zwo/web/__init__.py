@@ -15,7 +15,7 @@ from pathlib import Path
 from ..facade import FacadeProvider
 from .commands import ActionResource
 from .context import WebContext
-from .files import DeviceSetupPage, SetupPage, StaticFiles, static_dir
+from .files import DeviceSetupPage, RootRedirect, SetupPage, StaticFiles, static_dir
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
 from .settings import ServerResource, SettingsResource
@@ -33,6 +33,8 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
     facade = server.facade
     web = WebContext(facade, log_buffer())
     return [
+        ("/", RootRedirect()),  # not any_host: an open "/" would open every path (HostCheck prefixes)
+        ("/index.html", RootRedirect()),
         ("/setup", SetupPage(files)),
         ("/setup/v1/{device_type}/{device_number}/{page}", DeviceSetupPage(facade, files)),
         ("/setup/static/{name}", files),

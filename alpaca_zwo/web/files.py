@@ -1,4 +1,4 @@
-"""The page itself: ``/setup``, the per-device setup URL and the static files they load.
+"""The page itself: ``/setup`` (``/`` redirects there), the per-device setup URL and the static files they load.
 
 Static files are served from a list of names that exist in the package's ``static`` directory,
 never by joining a client-supplied path.
@@ -98,6 +98,21 @@ class SetupPage:
 
     def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
         self._files.serve(req, resp, "index.html", "no-cache")
+
+
+class RootRedirect:
+    """``GET /`` (and ``/index.html``): 302 to ``/setup``, so ``http://host:11111/`` typed by hand finds the page.
+
+    302, not 301: a browser caches a 301 for good, and the root must stay free for later use. Only
+    these exact paths redirect; every other unmatched path keeps the Alpaca sink's answer (400 for
+    a malformed device path, 403 for an unknown management method, else 404). The Location is a
+    path, so it follows whatever name or proxy the browser used.
+    """
+
+    def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
+        raise falcon.HTTPFound("/setup")
+
+    on_head = on_get
 
 
 class DeviceSetupPage:

@@ -125,7 +125,8 @@ def link_view(device: DeviceFacade) -> dict[str, Any]:
     view = device.link()
     link, counters = view.status, view.counters
     return {
-        "state": link.state.value, "url": link.url, "since": link.since, "last_error": link.last_error,
+        "state": link.state.value, "url": link.url, "emulated": device.emulated,
+        "since": link.since, "last_error": link.last_error,
         "reconnects": link.reconnects, "generation": link.generation, "poll_error": view.poll_error,
         "exchanges": counters.exchanges, "timeouts": counters.timeouts, "resyncs": counters.resyncs,
         "bytes_in": counters.bytes_in, "bytes_out": counters.bytes_out,
