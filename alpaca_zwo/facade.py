@@ -277,6 +277,33 @@ class DeviceFacade:
         self._telescope.set_utc_date(value)
         return self._telescope.utc_now()
 
+    # -- pointing at an object (web/goto.py): the same Telescope calls, limits and refusals as Alpaca --
+
+    def site(self) -> tuple[float, float, float]:
+        """Latitude (°N), longitude (°E), elevation (m) the server computes with."""
+        site = self._telescope.settings.site
+        return site.latitude, site.longitude, site.elevation
+
+    def horizon_floor(self, azimuth: float) -> float:
+        """The lowest altitude a GoTo may end at in this azimuth (horizon profile and minimum altitude)."""
+        return horizon_altitude_at(self._telescope.settings.limits, azimuth)
+
+    def destination_side_of_pier(self, ra_hours: float, dec_deg: float) -> int | None:
+        """DestinationSideOfPier for the mount's-frame RA/Dec; None while not connected."""
+        side = _quiet(lambda: self._telescope.destination_side_of_pier(ra_hours, dec_deg), None)
+        return None if side is None else int(side)
+
+    def goto(self, ra_hours: float, dec_deg: float, tracking_rate: int) -> None:
+        """SlewToCoordinatesAsync, then the drive rate the object needs (lunar, solar, sidereal): set only
+        once the slew has been accepted, so a refused GoTo changes nothing."""
+        self._telescope.slew_to_coordinates_async(ra_hours, dec_deg)
+        if _quiet(self._telescope.tracking_rate, None) != tracking_rate:
+            self._telescope.set_tracking_rate(tracking_rate)
+
+    def sync(self, ra_hours: float, dec_deg: float) -> None:
+        """SyncToCoordinates (the mount's frame), with its refusals."""
+        self._telescope.sync_to_coordinates(ra_hours, dec_deg)
+
 
 class ServerFacade:
     """The whole server as the page sees it: settings, devices, clients, bridges."""

@@ -16,6 +16,7 @@ from ..facade import FacadeProvider
 from .commands import ActionResource
 from .context import WebContext
 from .files import DeviceSetupPage, RootRedirect, SetupPage, StaticFiles, static_dir
+from .goto import GotoResource, ObjectDetails, ObjectSearch, SyncResource
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
 from .settings import ServerResource, SettingsResource
@@ -45,6 +46,10 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/telescope/{number}/settings", SettingsResource(web)),
         ("/setup/api/telescope/{number}/action/{name}", ActionResource(web)),
         ("/setup/api/telescope/{number}/trace", TraceResource(web)),
+        ("/setup/api/objects", ObjectSearch(web)),
+        ("/setup/api/telescope/{number}/object", ObjectDetails(web)),
+        ("/setup/api/telescope/{number}/goto", GotoResource(web)),
+        ("/setup/api/telescope/{number}/sync", SyncResource(web)),
         ("/setup/api/telescope/{number}/trace.txt", TraceText(web)),
     ]
 

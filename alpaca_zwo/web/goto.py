@@ -1,0 +1,169 @@
+"""Find an object, GoTo it, Sync on it: the page as a hand controller (issue 25 items 1 and 3).
+
+``GET /setup/api/objects?q=`` searches, ``GET …/telescope/{n}/object?id=`` describes one object for the
+site and the server's clock now, ``POST …/goto`` and ``POST …/sync`` point at it or sync on it. The
+catalogue place becomes the mount's frame here (topocentric apparent, ``objects.apparent``); the
+slew and the sync are then the Telescope's own SlewToCoordinatesAsync / SyncToCoordinates through
+the facade, so the horizon limits, park state and every refusal are the Alpaca API's. ``objects`` (and
+with it PyEphem and OpenNGC) is imported on the first request, never at server start.
+"""
+
+from __future__ import annotations
+
+import logging
+from datetime import datetime
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+import falcon
+
+from ..facade import DeviceFacade, current_client
+from .context import Resource
+from .http import ApiError, api_errors, check_same_origin, iso, send
+
+if TYPE_CHECKING:
+    from .objects import Apparent, SkyObject
+
+log = logging.getLogger(__name__)
+
+SUN_WARNING = ("Pointing at the Sun without a certified solar filter over the telescope AND its finder blinds "
+               "instantly and destroys cameras. Confirm only with a solar filter fitted.")
+SYNC_WARNING = "Sync tells the mount it points at this object now: confirm only with the object centred."
+PIER_SIDES = {0: "pierEast", 1: "pierWest", -1: "pierUnknown"}
+
+
+def _objects() -> ModuleType:
+    """The catalogues' module, imported on first use (it brings PyEphem and OpenNGC's database)."""
+    from . import objects
+
+    return objects
+
+
+def _time(t: datetime | None) -> str | None:
+    return iso(t) if t is not None else None
+
+
+def _query(req: falcon.Request, name: str) -> str:
+    value = req.get_param(name)
+    limit = _objects().MAX_QUERY
+    if not isinstance(value, str) or not value.strip() or len(value) > limit:
+        raise ApiError(400, f"{name} must be 1 to {limit} characters")
+    return value
+
+
+def _resolve(text: str) -> SkyObject:
+    objects = _objects()
+    try:
+        found: SkyObject = objects.lookup(text)
+        return found
+    except objects.ObjectError as exc:
+        raise ApiError(400 if "characters" in str(exc) or "RA must" in str(exc) else 404, str(exc)) from None
+
+
+def _place(device: DeviceFacade, obj: SkyObject) -> Apparent:
+    objects = _objects()
+    lat, lon, elevation = device.site()
+    place: Apparent = objects.apparent(obj, objects.Site(lat, lon, elevation), device.utc_now())
+    return place
+
+
+def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
+    """What the page shows for a selection: the place now, whether a GoTo may go there, and how."""
+    place = _place(device, obj)
+    floor = device.horizon_floor(place.azimuth)
+    side = device.destination_side_of_pier(place.ra_hours, place.dec_deg)
+    return {
+        **obj.to_json(),
+        "ra": place.ra_hours, "dec": place.dec_deg, "frame": "topocentric apparent (equinox of date)",
+        "altitude": place.altitude, "azimuth": place.azimuth,
+        "horizon_floor": floor, "above_limits": place.altitude >= floor,
+        "rise": _time(place.rise), "transit": _time(place.transit), "set": _time(place.set),
+        "always_up": place.always_up, "never_up": place.never_up,
+        "tracking_rate": obj.tracking_rate,
+        "destination_side_of_pier": PIER_SIDES.get(side) if side is not None else None,
+        "confirm": SUN_WARNING if obj.is_sun else None,
+    }
+
+
+class ObjectSearch(Resource):
+    """``GET /setup/api/objects?q=``: matches, best first."""
+
+    def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
+        with api_errors(resp):
+            objects = _objects()
+            try:
+                matches = objects.search(_query(req, "q"))
+            except objects.ObjectError as exc:
+                raise ApiError(400, str(exc)) from None
+            send(resp, {"matches": [m.to_json() for m in matches]})
+
+
+class ObjectDetails(Resource):
+    """``GET /setup/api/telescope/{number}/object?id=``: one object for this telescope's site and time."""
+
+    def on_get(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
+        with api_errors(resp):
+            device = self.web.device(number)
+            send(resp, describe(device, _resolve(_query(req, "id"))))
+
+
+class _Pointing(Resource):
+    """A POST naming an object (``id``) and maybe ``confirm``; run as the page's own client."""
+
+    verb = ""
+
+    def on_post(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
+        check_same_origin(req)
+        with api_errors(resp):
+            body = self.body(req)
+            device = self.web.device(number)
+            raw = body.get("id")
+            if not isinstance(raw, str) or not raw.strip() or len(raw) > _objects().MAX_QUERY:
+                raise ApiError(400, "id must be an object id or name from the search")
+            obj = _resolve(raw)
+            confirm = body.get("confirm", False)
+            if not isinstance(confirm, bool):
+                raise ApiError(400, "confirm must be true or false")
+            warning = self.warning(obj)
+            if warning and not confirm:
+                send(resp, {"error": "needs confirmation", "confirm": warning}, 409)
+                return
+            token = current_client.set(self.web.touch(req))
+            try:
+                place = _place(device, obj)
+                self.act(device, obj, place)
+            finally:
+                current_client.reset(token)
+            log.info("setup page (%s): %s %s at RA %.5f h Dec %.4f°", req.remote_addr, self.verb, obj.name,
+                     place.ra_hours, place.dec_deg)
+            send(resp, {"ok": True, **describe(device, obj)})
+
+    def warning(self, obj: SkyObject) -> str | None:
+        raise NotImplementedError
+
+    def act(self, device: DeviceFacade, obj: SkyObject, place: Apparent) -> None:
+        raise NotImplementedError
+
+
+class GotoResource(_Pointing):
+    """``POST /setup/api/telescope/{number}/goto``: the Sun only with ``confirm: true``."""
+
+    verb = "GoTo"
+
+    def warning(self, obj: SkyObject) -> str | None:
+        return SUN_WARNING if obj.is_sun else None
+
+    def act(self, device: DeviceFacade, obj: SkyObject, place: Apparent) -> None:
+        device.goto(place.ra_hours, place.dec_deg, obj.tracking_rate)
+
+
+class SyncResource(_Pointing):
+    """``POST /setup/api/telescope/{number}/sync``: always with ``confirm: true``."""
+
+    verb = "Sync"
+
+    def warning(self, obj: SkyObject) -> str | None:
+        return SYNC_WARNING
+
+    def act(self, device: DeviceFacade, obj: SkyObject, place: Apparent) -> None:
+        device.sync(place.ra_hours, place.dec_deg)

@@ -1,0 +1,195 @@
+"""Find, GoTo and Sync over the page's HTTP API against the built-in emulator (issue 25 items 1 and 3).
+
+Judged by the emulator's truth (its model's snapshot), against places Skyfield computes with DE421:
+another library and ephemeris than the product's PyEphem. Each scene puts its object about 1.5 h east
+of the meridian by choosing the site's longitude for the moment the test runs, so it is well up.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from alpaca_zwo import sky
+from alpaca_zwo.config import SiteSettings
+from alpaca_zwo.emulator import MountModel
+from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.web import objects
+from tests.conftest import ServerFactory, make_settings
+from tests.support import wait_until
+from tests.test_setup_api import Client
+from tests.test_sky_objects import separation_arcsec, skyfield_place
+
+LATITUDE = 51.4769
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def client(base_url: str) -> Client:
+    return Client(base_url)
+
+
+def _longitude_putting(obj: objects.SkyObject, ha_hours: float = -1.5) -> float:
+    """The east longitude where ``obj`` stands ``ha_hours`` from the meridian now."""
+    now = datetime.now(timezone.utc)
+    place = objects.apparent(obj, objects.Site(LATITUDE, 0.0, 0.0), now)
+    gmst = sky.local_sidereal_time(now, 0.0)
+    return (((place.ra_hours + ha_hours - gmst) * 15.0 + 180.0) % 360.0) - 180.0
+
+
+def _scene(server_factory: ServerFactory, name: str) -> tuple[AlpacaZwoServer, Client, MountModel]:
+    lon = _longitude_putting(objects.lookup(name))
+    server = server_factory(make_settings(site=SiteSettings(latitude=LATITUDE, longitude=lon, elevation=46.0)))
+    client = Client(f"http://127.0.0.1:{server.port}")
+    client.command("connected", Connected="true")
+    wait_until(lambda: client.status()["position"] is not None, what="a first position")
+    emulator = server.emulators[0]
+    assert emulator is not None
+    return server, client, emulator.model
+
+
+def _truth_place(model: MountModel) -> tuple[tuple[float, float], datetime]:
+    truth: dict[str, Any] = model.snapshot()
+    return (truth["ra_h"], truth["dec_deg"]), datetime.fromisoformat(truth["mount_utc"])
+
+
+def _goto(client: Client, model: MountModel, name: str) -> dict[str, Any]:
+    selected = client.session.get(f"{client.api}/object", params={"id": name}, timeout=10).json()
+    r = client.post("/setup/api/telescope/0/goto", {"id": selected["id"]})
+    assert r.status_code == 200, r.text
+    wait_until(lambda: model.snapshot()["slew"] is None and not client.value("slewing"), 180.0, f"the GoTo to {name}")
+    return selected
+
+
+@pytest.mark.parametrize("name", ["Vega", "M31", "Jupiter"])
+def test_goto_lands_on_the_object(server_factory: ServerFactory, name: str) -> None:
+    _, client, model = _scene(server_factory, name)
+    before, _ = _truth_place(model)
+    selected = _goto(client, model, name)
+    assert selected["above_limits"] and selected["altitude"] > 30
+    landed, when = _truth_place(model)
+    expected = skyfield_place(objects.lookup(selected["id"]), objects.Site(LATITUDE, *client_site(client)), when)
+    assert separation_arcsec(before, expected) > 3600  # it really moved there
+    assert separation_arcsec(landed, expected) < 30.0, (landed, expected)
+    assert model.snapshot()["tracking_rate"] == "sidereal"
+    side = {"E": "pierEast", "W": "pierWest"}[model.snapshot()["pier"]]
+    assert selected["destination_side_of_pier"] == side
+
+
+def client_site(client: Client) -> tuple[float, float]:
+    return client.value("sitelongitude"), client.value("siteelevation")
+
+
+def test_the_sun_needs_a_confirmation_naming_the_danger(server_factory: ServerFactory) -> None:
+    _, client, model = _scene(server_factory, "Sun")
+    before = model.snapshot()
+    r = client.post("/setup/api/telescope/0/goto", {"id": "body:Sun"})
+    assert r.status_code == 409 and "solar filter" in r.json()["confirm"]
+    r = client.post("/setup/api/telescope/0/goto", {"id": "body:Sun", "confirm": False})
+    assert r.status_code == 409
+    after = model.snapshot()
+    assert after["slew"] is None and after["target_ra_h"] == before["target_ra_h"]
+    assert separation_arcsec((after["ra_h"], after["dec_deg"]), (before["ra_h"], before["dec_deg"])) < 1.0
+    assert not client.value("slewing")
+
+    r = client.post("/setup/api/telescope/0/goto", {"id": "body:Sun", "confirm": True})
+    assert r.status_code == 200, r.text
+    wait_until(lambda: model.snapshot()["slew"] is None and not client.value("slewing"), 180.0, "the GoTo to the Sun")
+    landed, when = _truth_place(model)
+    expected = skyfield_place(objects.lookup("Sun"), objects.Site(LATITUDE, *client_site(client)), when)
+    assert separation_arcsec(landed, expected) < 30.0
+    assert model.snapshot()["tracking_rate"] == "solar"
+    assert client.value("trackingrate") == 2
+
+
+def test_sync_on_a_selected_object(server_factory: ServerFactory) -> None:
+    """The user's GoTo landed 0.4° off (a poor polar alignment); they centre Arcturus by eye and sync."""
+    _, client, model = _scene(server_factory, "Arcturus")
+    arcturus = objects.lookup("Arcturus")
+    assert arcturus.ra_hours is not None and arcturus.dec_deg is not None
+    _goto(client, model, f"{arcturus.ra_hours:.6f}h {arcturus.dec_deg + 0.4:.5f}")
+    client.command("tracking", Tracking="true")
+    off = (client.value("rightascension"), client.value("declination"))
+    r = client.post("/setup/api/telescope/0/sync", {"id": "star:Arcturus"})
+    assert r.status_code == 409 and r.json()["confirm"]  # a sync is never made without a confirmation
+    r = client.post("/setup/api/telescope/0/sync", {"id": "star:Arcturus", "confirm": True})
+    assert r.status_code == 200, r.text
+    _, when = _truth_place(model)
+    expected = skyfield_place(objects.lookup("Arcturus"), objects.Site(LATITUDE, *client_site(client)), when)
+    assert separation_arcsec(off, expected) > 1000
+    read = (client.value("rightascension"), client.value("declination"))
+    assert separation_arcsec(read, expected) < 30.0
+
+
+def test_a_goto_below_the_horizon_is_refused_as_alpaca_refuses_it(server_factory: ServerFactory) -> None:
+    _, client, model = _scene(server_factory, "Vega")
+    canopus = client.session.get(f"{client.api}/object", params={"id": "Canopus"}, timeout=10).json()
+    assert not canopus["above_limits"] and canopus["never_up"]
+    r = client.post("/setup/api/telescope/0/goto", {"id": "Canopus"})
+    assert r.status_code == 400
+    page = r.json()
+    alpaca = client.session.put(f"{client.base}/api/v1/telescope/0/slewtocoordinatesasync", timeout=10, data={
+        "RightAscension": canopus["ra"], "Declination": canopus["dec"], "ClientID": 77}).json()
+    assert page["number"] == alpaca["ErrorNumber"] == 0x401
+    assert page["error"].split(":")[0] == alpaca["ErrorMessage"].split(":")[0] == "target is below the horizon limit"
+    assert model.snapshot()["slew"] is None
+
+
+@pytest.mark.parametrize(("path", "status"), [
+    ("/setup/api/objects?q=", 400), ("/setup/api/objects?q=" + "x" * 200, 400), ("/setup/api/objects", 400),
+    ("/setup/api/objects?q=%00Vega", 400), ("/setup/api/objects?q=99h00m00s+0+0+0", 400),
+    ("/setup/api/telescope/0/object?id=Xyzzy+nebula", 404), ("/setup/api/telescope/7/object?id=Vega", 404),
+])
+def test_junk_queries_get_4xx(client: Client, path: str, status: int) -> None:
+    r = client.session.get(f"{client.base}{path}", timeout=10)
+    assert r.status_code == status, r.text
+    assert "error" in r.json()
+
+
+def test_search_over_http(client: Client) -> None:
+    r = client.session.get(f"{client.base}/setup/api/objects", params={"q": "alpha Lyr"}, timeout=10)
+    assert r.status_code == 200
+    assert r.json()["matches"][0]["name"] == "Vega"
+
+
+def test_goto_needs_the_page_header(client: Client) -> None:
+    r = client.post("/setup/api/telescope/0/goto", {"id": "Vega"}, headers={"Content-Type": "application/json"})
+    assert r.status_code == 403
+
+
+def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
+    """Start, connect, serve Alpaca and the status feed: PyEphem, OpenNGC and Skyfield stay unloaded."""
+    script = textwrap.dedent(f"""
+        import json, sys
+        from pathlib import Path
+        import requests
+        from tests.conftest import make_settings
+        from alpaca_zwo.server import AlpacaZwoServer
+        from alpaca_zwo.store import SettingsStore
+        from alpaca_zwo.web import setup_routes
+        server = AlpacaZwoServer(SettingsStore(make_settings(), Path({str(tmp_path)!r}) / "c.toml"), None,
+                                 extra_routes_factory=setup_routes)
+        server.start()
+        base = f"http://127.0.0.1:{{server.port}}"
+        requests.put(base + "/api/v1/telescope/0/connected", data={{"Connected": "true"}}, timeout=10)
+        requests.get(base + "/api/v1/telescope/0/rightascension", timeout=10).raise_for_status()
+        requests.get(base + "/setup/api/telescope/0/status", timeout=10).raise_for_status()
+        names = ("ephem", "pyongc", "skyfield", "alpaca_zwo.web.objects")
+        before = [m for m in names if m in sys.modules]
+        requests.get(base + "/setup/api/objects", params={{"q": "M31"}}, timeout=10).raise_for_status()
+        after = [m for m in names if m in sys.modules]
+        server.stop()
+        print(json.dumps({{"before": before, "after": after}}))
+    """)
+    out = subprocess.run([sys.executable, "-c", script], cwd=REPO, capture_output=True, text=True, timeout=120,
+                         check=True)
+    seen = json.loads(out.stdout.strip().splitlines()[-1])
+    assert seen["before"] == []
+    assert {"ephem", "pyongc", "alpaca_zwo.web.objects"} <= set(seen["after"])  # a search loads them: the check sees
