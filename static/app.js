@@ -341,10 +341,14 @@
     let linkText = link.state;
     if (link.state === "connected" && !s.initialised) linkText += ", initialising";
     if (link.reconnects) linkText += ", " + link.reconnects + " reconnect" + (link.reconnects > 1 ? "s" : "");
-    if (link.last_error) linkText += " \u2014 " + link.last_error;
+    // The exception text stays in the log and the trace: the page says what to do instead (lostText).
     setText("link", linkText + " (" + (link.emulated ? "built-in emulator" : link.url) + ")", link.state === "connected" ? "" : link.state === "closed" ? "" : "bad");
     const age = pos ? pos.age_s : null;
-    setText("age", age === null ? "\u2013" : fmtDuration(age) + (s.link.poll_error ? " \u2014 " + s.link.poll_error : ""), age !== null && age > 5 && s.connected ? "bad" : "");
+    const lost = lostText(s);
+    setText("age", age === null ? "\u2013" : fmtDuration(age) + (lost ? ", last known position" : ""), age !== null && age > 5 && s.connected ? "bad" : "");
+    setText("link-lost", lost, lost ? "lost" : "lost hidden");
+    $("readout").classList.toggle("stale", Boolean(lost));
+    $("sky").classList.toggle("stale", Boolean(lost));
     const utc = s.time.utc.replace("T", " ").replace(/\.\d+Z$/, " UTC");
     setText("utc", utc);
 
@@ -379,6 +383,23 @@
     renderClients(s.clients);
     renderBridges(s.bridges || []);
     drawSky(s);
+  }
+
+  // One plain message when the mount cannot be reached: what happened and what to try (no exception text).
+  function lostText(s) {
+    const link = s.link;
+    const down = link.state === "reconnecting" || (link.state === "connecting" && Boolean(link.last_error));
+    const age = s.position ? s.position.age_s : null;
+    const silent = !down && link.state === "connected" && s.connected && age !== null && age > 10;
+    if (!down && !silent) return "";
+    const wifi = /^(socket|rfc2217):\/\//.test(link.url) && !link.emulated;
+    const check = wifi
+      ? "that this computer is still on the mount's WiFi (or the network it is on) and in range"
+      : "that the USB cable is plugged in firmly at both ends (or try another cable or port)";
+    return (down ? "The connection to the mount is lost" : "The mount has stopped answering") +
+      "; alpaca-zwo keeps trying to reconnect." +
+      (age !== null ? " The position shown is the last one known, " + fmtDuration(age) + " old." : "") +
+      " Check that the mount is switched on and has power, and " + check + ".";
   }
 
   function renderControls(s) {

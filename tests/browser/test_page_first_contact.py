@@ -117,3 +117,41 @@ def test_location_button_explains_an_insecure_page(browser_factory: Callable[...
         assert words in explained, (words, explained)
     driver.execute_script("arguments[0].scrollIntoView({block: 'center'})", note)
     driver.save_screenshot(f"/tmp/alpaca-zwo-first-contact-location-{size}.png")
+
+
+@pytest.mark.parametrize("size", ["phone", "desktop"])
+def test_lost_link_gives_one_plain_message_and_greys_the_position(
+        browser: WebDriver, server_factory: Callable[..., AlpacaZwoServer], size: str) -> None:
+    """The mount on "WiFi" (a socket:// URL) goes away: what happened and what to try, no exception text,
+    the last position kept but greyed out with its age (issue 25 item 4)."""
+    emulator = EmulatorServer(MountModel(ScaledClock()), host="127.0.0.1", port=0, baud=0).start()
+    try:
+        server = server_factory(None, Overrides(device_url=f"socket://127.0.0.1:{emulator.port}"))
+        AlpacaClient(server.port, timeout=TIMEOUT, call_timeout=TIMEOUT).command("connected", Connected="true")
+        open_page(browser, f"http://127.0.0.1:{server.port}/setup", SIZES[size])
+        WebDriverWait(browser, TIMEOUT).until(lambda d: DMS_ALT.fullmatch(text(d, "alt")) is not None)
+        lost = browser.find_element(By.ID, "link-lost")
+        assert not lost.is_displayed()
+        assert "stale" not in (browser.find_element(By.ID, "readout").get_attribute("class") or "")
+    finally:
+        emulator.stop()  # the mount switched off / out of WiFi range
+    WebDriverWait(browser, 30).until(lambda d: lost.is_displayed())
+    message = lost.text
+    assert message.startswith("The connection to the mount is lost") or message.startswith("The mount has stopped"), message
+    for words in ("switched on and has power", "WiFi", "keeps trying to reconnect", "last one known"):
+        assert words in message, (words, message)
+    status = requests.get(f"http://127.0.0.1:{server.port}/setup/api/telescope/0/status", timeout=TIMEOUT).json()
+    raw = [e for e in (status["link"]["last_error"], status["link"]["poll_error"]) if e]
+    assert raw, status["link"]  # the server does know the exception text ...
+    body = browser.find_element(By.TAG_NAME, "body").text
+    for error in raw:
+        assert error not in body, error  # ... and the page does not show it
+    assert "stale" in (browser.find_element(By.ID, "readout").get_attribute("class") or "")
+    assert "stale" in (browser.find_element(By.ID, "sky").get_attribute("class") or "")
+    assert float(browser.execute_script("return getComputedStyle(document.getElementById('readout')).opacity")) < 1
+    assert DMS_ALT.fullmatch(text(browser, "alt")), text(browser, "alt")  # the last position, still shown
+    assert "last known position" in text(browser, "age")
+    assert body.count("The connection to the mount is lost") + body.count("The mount has stopped") == 1
+    browser.execute_script("window.scrollTo(0, document.getElementById('status-h').getBoundingClientRect().top"
+                           " + window.scrollY - 8)")
+    browser.save_screenshot(f"/tmp/alpaca-zwo-first-contact-link-lost-{size}.png")
