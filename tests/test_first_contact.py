@@ -24,7 +24,7 @@ import requests
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.server import AlpacaZwoServer, Overrides
 from tests.conftest import ServerFactory
-from tests.netns import NetnsLan, lan_fixture
+from tests.netns import NetnsLan, NsProcess, lan_fixture
 from tests.support import wait_until
 
 ENV = {"PYTHONPATH": str(Path(__file__).resolve().parents[1]), "PATH": "/usr/bin:/bin"}
@@ -86,7 +86,7 @@ sys.exit(server_main(sys.argv[1:]))
 """
 
 
-def _banner(lan: NetnsLan, tmp_path: Path, host: str) -> tuple[list[str], int, object]:
+def _banner(lan: NetnsLan, tmp_path: Path, host: str) -> tuple[list[str], int, NsProcess]:
     """Start ``alpaca-zwo --host HOST --port 0`` in the first namespace; its banner lines and port."""
     config = tmp_path / f"config-{host.replace(':', '6')}.toml"
     config.write_text("[server]\nmdns = false\n")
@@ -97,6 +97,12 @@ def _banner(lan: NetnsLan, tmp_path: Path, host: str) -> tuple[list[str], int, o
         lines.append(server.readline(TIMEOUT).strip())
     port = int(lines[-1].rsplit(" ", 1)[1].rstrip(")"))
     return lines, port, server
+
+
+def _stop(server: NsProcess) -> None:
+    """SIGTERM, as systemd stops it (the server does not read stdin, NsProcess.stop's first request)."""
+    server.proc.terminate()
+    assert server.proc.wait(TIMEOUT) == 0
 
 
 def test_banner_lists_the_page_at_each_lan_address(lan: NetnsLan, tmp_path: Path) -> None:
@@ -116,14 +122,14 @@ def test_banner_lists_the_page_at_each_lan_address(lan: NetnsLan, tmp_path: Path
                      "print(r.status, r.url, 'alpaca-zwo setup' in r.read().decode())",
                      f"http://{a.ipv4}:{port}/")
     assert reply.split() == ["200", f"http://{a.ipv4}:{port}/setup", "True"], reply
-    server.stop()  # type: ignore[attr-defined]
+    _stop(server)
 
     lines, port, server = _banner(lan, tmp_path, "::")
     text = "\n".join(lines)
     for url in (f"http://{a.ipv4}:{port}/setup", f"http://[fd42:25::1]:{port}/setup", f"http://{local}:{port}/setup"):
         assert url in text, (url, text)
     assert "fe80" not in text and "[::1]" not in text, text
-    server.stop()  # type: ignore[attr-defined]
+    _stop(server)
 
 
 def test_banner_on_one_address_names_only_that_address(live_server: AlpacaZwoServer) -> None:
