@@ -95,12 +95,16 @@ def page_urls(host: str, port: int, path: str = "/setup") -> list[str]:
     """The URLs of ``path`` another device may open: one per LAN address, then ``<host>.local``.
 
     ``host`` is where the server listens; a wildcard (``0.0.0.0``: IPv4; ``::``/empty: IPv6 and,
-    dual-stack, IPv4 too) lists this machine's addresses, anything else is its own single URL.
+    dual-stack as Linux and macOS make it by default, IPv4 too) lists this machine's addresses,
+    anything else is its own single URL.
     """
     if host not in ("0.0.0.0", "::", ""):
         shown = f"[{host}]" if ":" in host else host
         return [f"http://{shown}:{port}{path}"]
-    urls = [f"http://{f'[{a}]' if ':' in a else a}:{port}{path}" for a in lan_addresses(ipv6=host != "0.0.0.0")]
+    addresses = lan_addresses(ipv6=host != "0.0.0.0")
+    if host != "0.0.0.0" and sys.platform == "win32":  # Windows' "::" socket is IPv6-only (IPV6_V6ONLY on)
+        addresses = [a for a in addresses if ":" in a]
+    urls = [f"http://{f'[{a}]' if ':' in a else a}:{port}{path}" for a in addresses]
     name = mdns_name()
     if name:
         urls.append(f"http://{name}:{port}{path}")
