@@ -83,6 +83,20 @@ def test_goto_lands_on_the_object(server_factory: ServerFactory, name: str) -> N
     assert selected["destination_side_of_pier"] == side
 
 
+def test_goto_the_moon_tracks_lunar(server_factory: ServerFactory) -> None:
+    """The Moon's topocentric place (parallax up to 1°), then the lunar rate keeps it."""
+    _, client, model = _scene(server_factory, "Moon")
+    selected = _goto(client, model, "Moon")
+    assert selected["tracking_rate"] == 1
+    landed, when = _truth_place(model)
+    site = objects.Site(LATITUDE, *client_site(client))
+    expected = skyfield_place(objects.lookup("Moon"), site, when)
+    # the Moon moves ~0.5″/s on the stars: the slew's own seconds are in this bound
+    assert separation_arcsec(landed, expected) < 60.0, (landed, expected)
+    assert model.snapshot()["tracking_rate"] == "lunar"
+    assert client.value("trackingrate") == 1
+
+
 def client_site(client: Client) -> tuple[float, float]:
     return client.value("sitelongitude"), client.value("siteelevation")
 
