@@ -13,7 +13,6 @@ import warnings
 from datetime import datetime, timedelta, timezone
 from typing import Any
 
-import ephem.stars
 import pytest
 from skyfield.api import Loader, Star, wgs84
 
@@ -43,12 +42,9 @@ def skyfield_place(obj: objects.SkyObject, site: Site, when: datetime) -> tuple[
     target: Any
     if obj.body is not None:
         target = EPH[SKYFIELD_BODIES[obj.body]]
-    elif obj.id.startswith("star:"):
-        line = next(x for x in ephem.stars.db.splitlines() if x.split(",")[0] == obj.name)
-        ra_pm, dec_pm = line.split(",")[2:4]
-        ra, pm_ra = (float(v) for v in ra_pm.split("|"))
-        dec, pm_dec = (float(v) for v in dec_pm.split("|"))
-        target = Star(ra_hours=ra, dec_degrees=dec, ra_mas_per_year=pm_ra, dec_mas_per_year=pm_dec)
+    elif obj.id.startswith("star:"):  # the catalogue's J2000 place and proper motion, reduced by Skyfield
+        target = Star(ra_hours=obj.ra_hours, dec_degrees=obj.dec_deg, ra_mas_per_year=obj.pm_ra_mas,
+                      dec_mas_per_year=obj.pm_dec_mas)
     else:
         assert obj.ra_hours is not None and obj.dec_deg is not None
         target = Star(ra_hours=obj.ra_hours, dec_degrees=obj.dec_deg)
@@ -114,6 +110,20 @@ def test_tracking_rates_follow_the_object() -> None:
     assert {lookup(n).tracking_rate for n in ("Mars", "Vega", "M31", "10 20")} == {SIDEREAL}
 
 
+def test_the_iau_names_of_the_bright_stars() -> None:
+    """Every IAU-named star to magnitude 2.5 (85 of them in IAU-CSN), found by name and Bayer form."""
+    stars = {o.id: o for o in objects._stars().values()}.values()
+    bright = [o for o in stars if o.magnitude is not None and o.magnitude <= 2.5]
+    assert len(bright) == 85
+    for star in bright:
+        assert search(star.name)[0] == star
+        assert any(search(a)[0] == star for a in star.aliases), star  # α Cen is Rigil Kentaurus; α2 Cen Toliman
+    assert search("Sargas")[0].aliases[0] == "θ Sco"
+    assert search("theta Sco")[0].name == "Sargas"
+    assert search("Toliman")[0].magnitude == pytest.approx(1.35)
+    assert search("Agena")[0].name == "Hadar"  # PyEphem's traditional name of β Cen
+
+
 def test_every_bright_named_star_of_the_list_has_its_bayer_form() -> None:
     """The Bayer forms come from the IAU-keyed table; each of the first-magnitude stars must have one."""
     for name in ("Sirius", "Canopus", "Arcturus", "Capella", "Rigel", "Procyon", "Betelgeuse", "Achernar", "Altair",
@@ -126,6 +136,7 @@ def test_every_bright_named_star_of_the_list_has_its_bayer_form() -> None:
 
 
 @pytest.mark.parametrize("name", ["Vega", "Sirius", "Polaris", "Canopus", "Arcturus", "Rigil Kentaurus", "Acrux",
+                                  "Barnard's Star", "Sargas",
                                   "M31", "M42", "NGC 7000", "IC 434", "05 35 17 -05 23 28"])
 @pytest.mark.parametrize("when", [WHEN, WHEN + timedelta(days=3650)])
 def test_star_and_deep_sky_places_agree_with_skyfield(name: str, when: datetime) -> None:

@@ -1,11 +1,12 @@
 """Find a sky object by name or coordinates, and where the mount must point for it now (issue 25).
 
-Pure: no server state. Positions come from packages, not tables of our own: PyEphem (its star list
-from Hipparcos with proper motions, VSOP87 planets, its Moon and Sun) and OpenNGC's database as
-pyongc ships it (deep-sky objects, Messier numbers, common names). Both are imported on first use
-only: the Alpaca server starts and serves without them (tests/test_setup_goto.py checks
-``sys.modules``). ``star_names.csv`` beside this module adds the Bayer/Flamsteed forms of the named
-stars (IAU WGSN names keyed by HIP; its header says where it comes from).
+Pure: no server state. Positions come from packages and published catalogues, not tables of our own:
+PyEphem (VSOP87 planets, its Moon and Sun, and the apparent-place reduction), OpenNGC's database as
+pyongc ships it (deep-sky objects, Messier numbers, common names), and ``star_names.csv`` beside this
+module: the IAU WGSN's named stars (IAU-CSN: J2000 places, Vmag) with Hipparcos proper motions and
+Bayer/Flamsteed forms, keyed by HIP (``tools/make_star_names.py`` says where each column comes from).
+PyEphem and pyongc are imported on first use only: the Alpaca server starts and serves without them
+(tests/test_setup_goto.py checks ``sys.modules``).
 
 Apparent places are in the mount's frame, ``EquatorialSystem`` 1 (topocentric, equinox of date):
 PyEphem's ``ra``/``dec`` for an observer are apparent topocentric of date (precession, nutation,
@@ -65,6 +66,8 @@ class SkyObject:
     dec_deg: float | None = None
     body: str | None = None  # "Moon", "Mars", ...; None for catalogue places
     aliases: tuple[str, ...] = field(default=())
+    pm_ra_mas: float = 0.0  # proper motion, mas/yr (RA component times cos Dec), epoch J2000
+    pm_dec_mas: float = 0.0
 
     @property
     def tracking_rate(self) -> int:
@@ -114,26 +117,37 @@ def _fold(text: str) -> str:
 
 @functools.lru_cache(maxsize=1)
 def _stars() -> dict[str, SkyObject]:
-    """PyEphem's named stars by folded name and designation forms."""
-    import ephem
-    import ephem.stars
-
-    forms: dict[str, list[str]] = {}
+    """The IAU-named stars (``star_names.csv``) by folded name and designation forms, plus the other
+    names PyEphem's star list knows them by ("Agena", "Alcaid"), matched by position."""
+    index: dict[str, SkyObject] = {}
+    by_place: dict[tuple[float, float], SkyObject] = {}
     table = resources.files(__package__).joinpath("star_names.csv").read_text(encoding="utf-8")
     for line in table.splitlines():
-        if line[:1].isdigit():
-            _hip, name, designations = line.split(",", 2)
-            forms[name] = [d for d in designations.split(";") if d]
-    index: dict[str, SkyObject] = {}
-    for name in sorted(ephem.stars.stars):
-        star = ephem.stars.star(name)
-        star.compute(ephem.J2000)  # the magnitude is defined only after a compute
-        aliases = tuple(forms.get(name, ()))
-        obj = SkyObject(f"star:{name}", name, "star", round(float(star.mag), 2),
-                        math.degrees(float(star._ra)) / 15.0, math.degrees(float(star._dec)), aliases=aliases)
+        if not line[:1].isdigit():
+            continue
+        _hip, name, vmag, ra, dec, pm_ra, pm_dec, designations = line.split(",", 7)
+        aliases = tuple(d for d in designations.split(";") if d)
+        obj = SkyObject(f"star:{name}", name, "star", float(vmag), float(ra) / 15.0, float(dec), aliases=aliases,
+                        pm_ra_mas=float(pm_ra), pm_dec_mas=float(pm_dec))
         for key in (name, *aliases, *(_latin_forms(a) for a in aliases)):
             index.setdefault(_fold(key), obj)
+        by_place[round(float(ra), 3), round(float(dec), 3)] = obj
+    for key, obj in _ephem_star_names(by_place).items():
+        index.setdefault(key, obj)
     return index
+
+
+def _ephem_star_names(by_place: dict[tuple[float, float], SkyObject]) -> dict[str, SkyObject]:
+    """PyEphem's traditional names of the IAU-named stars (its list and the IAU's agree to 0.01″)."""
+    import ephem.stars
+
+    found: dict[str, SkyObject] = {}
+    for name in ephem.stars.stars:
+        star = ephem.stars.star(name)
+        obj = by_place.get((round(math.degrees(float(star._ra)), 3), round(math.degrees(float(star._dec)), 3)))
+        if obj is not None:
+            found[_fold(name)] = obj
+    return found
 
 
 def _latin_forms(designation: str) -> str:
@@ -350,16 +364,14 @@ def _observer(site: Site, when: datetime) -> Any:
 
 def _ephem_body(obj: SkyObject) -> Any:
     import ephem
-    import ephem.stars
 
     if obj.body is not None:
         return getattr(ephem, obj.body)()
-    if obj.id.startswith("star:"):
-        return ephem.stars.star(obj.name)  # with its proper motion, epoch J2000
     assert obj.ra_hours is not None and obj.dec_deg is not None
     fixed = ephem.FixedBody()
     fixed._ra, fixed._dec = math.radians(obj.ra_hours * 15.0), math.radians(obj.dec_deg)
-    fixed._epoch = ephem.J2000
+    fixed._pmra, fixed._pmdec = obj.pm_ra_mas, obj.pm_dec_mas  # mas/yr, as PyEphem's own star list
+    fixed._epoch = ephem.J2000  # equinox and epoch of the position
     return fixed
 
 
