@@ -322,12 +322,14 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
     def set_side_of_pier(self, value: int) -> None:
         """Flip to the other pointing state on the current position: a GOTO under a meridian limit
         that makes the mount take that side (motion/flip.py, docs/meridian.md). Asynchronous like
-        any slew: Slewing until at rest, AbortSlew stops it. Writing the current side does nothing."""
+        any slew: Slewing until at rest, AbortSlew stops it. Writing the current side does nothing.
+        In alt-az mode (CanSetPierSide false) every write is NotImplemented, whatever its value: ConformU
+        writes back the -1 it read there and counts an InvalidValue as a finding."""
+        if self._altaz_mode():
+            raise MemberNotImplemented("an alt-az mount has no pier side to set")
         if value not in (PierSide.EAST, PierSide.WEST):
             raise InvalidValue(f"SideOfPier {value} is not 0 (pierEast) or 1 (pierWest)")
         self._require_connected()
-        if self._altaz_mode():
-            raise MemberNotImplemented("an alt-az mount has no pier side to set")
         self._require_unparked("SideOfPier")
         if self.side_of_pier() == value:
             return

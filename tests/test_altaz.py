@@ -93,6 +93,8 @@ def test_alignment_mode_and_capabilities(rig: Rig) -> None:
     assert scope.DestinationSideOfPier(_ra_at_ha(scope, -2.0), 40.0) == PierSide.pierUnknown
     with pytest.raises(NotImplementedException):  # no pier side to set (ConformU: MustNotBeImplemented)
         scope.SideOfPier = PierSide.pierEast
+    with pytest.raises(NotImplementedException):  # also the -1 read back here (ConformU's protocol run)
+        scope.SideOfPier = PierSide.pierUnknown
     assert scope.IsPulseGuiding is False
     names = {item["Name"] for item in scope.DeviceState}
     assert "IsPulseGuiding" in names and "SideOfPier" in names
