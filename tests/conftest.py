@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import socket
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -56,3 +57,12 @@ def live_server(server_factory: ServerFactory) -> AlpacaZwoServer:
 @pytest.fixture
 def base_url(live_server: AlpacaZwoServer) -> str:
     return f"http://127.0.0.1:{live_server.port}"
+
+
+@pytest.fixture
+def listener() -> Iterator[int]:
+    """A port another program listens on (127.0.0.1): for tests of a port already in use."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        sock.listen(1)
+        yield sock.getsockname()[1]

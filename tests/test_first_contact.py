@@ -143,12 +143,6 @@ def test_banner_on_one_address_names_only_that_address(live_server: AlpacaZwoSer
 # ================================================================================================
 
 
-@pytest.fixture
-def listener() -> Iterator[int]:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        sock.listen(1)
-        yield sock.getsockname()[1]
 
 
 def _start_line(*arguments: str) -> list[str]:

@@ -164,13 +164,6 @@ def test_cleanup_removes_only_abandoned_files_of_ours(tmp_path: Path) -> None:
 # ================================================================================================
 
 
-@pytest.fixture
-def listener() -> Iterator[int]:
-    """A port another program listens on (127.0.0.1)."""
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        sock.listen(1)
-        yield sock.getsockname()[1]
 
 
 def _ipv6() -> bool:
