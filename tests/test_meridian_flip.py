@@ -32,6 +32,8 @@ from tests.support.wait import wait_until
 
 DEC = 30.0  # 68° up at the meridian from Greenwich
 FLIP_HA = 0.02  # hours past the meridian when N.I.N.A. flips
+#: Emulated seconds per real second: the checks are of where the mount ends, not of timing.
+SPEED = 4.0
 SETTINGS = {  # the mount's meridian setting: (track past, limit in degrees)
     "track-past-5": (True, 5),
     "track-past-0": (True, 0),
@@ -58,7 +60,7 @@ class Rig:
                 ids=[*SETTINGS, "track-past-5-mount-flips-at-meridian"])
 def rig(request: pytest.FixtureRequest, server_factory: ServerFactory) -> Iterator[Rig]:
     track_past, limit = SETTINGS[request.param[0]]
-    settings = make_settings(emulator=EmulatorSettings(speed=1.0, baud=0),
+    settings = make_settings(emulator=EmulatorSettings(speed=SPEED, baud=0),
                              limits=LimitSettings(meridian_track_past=track_past, meridian_limit_deg=limit))
     server = server_factory(settings)
     model = server.emulators[0].model
@@ -155,7 +157,7 @@ def configured_meridian(rig: Rig) -> tuple[bool, int]:
 @pytest.fixture
 def rig5(server_factory: ServerFactory) -> Iterator[Rig]:
     """One rig with "track past 5°" and the default GOTO rule (A1)."""
-    settings = make_settings(emulator=EmulatorSettings(speed=1.0, baud=0),
+    settings = make_settings(emulator=EmulatorSettings(speed=SPEED, baud=0),
                              limits=LimitSettings(meridian_track_past=True, meridian_limit_deg=5))
     server = server_factory(settings)
     model = server.emulators[0].model
