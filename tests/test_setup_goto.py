@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import SiteSettings
+from alpaca_zwo.config import EmulatorSettings, SiteSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.web import objects
@@ -28,6 +28,8 @@ from tests.test_setup_api import Client
 from tests.test_sky_objects import separation_arcsec, skyfield_place
 
 LATITUDE = 51.4769
+#: Emulated seconds per real second: landings are judged at the mount's own time, not by timing.
+SPEED = 4.0
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -46,7 +48,8 @@ def _longitude_putting(obj: objects.SkyObject, ha_hours: float = -1.5) -> float:
 
 def _scene(server_factory: ServerFactory, name: str) -> tuple[AlpacaZwoServer, Client, MountModel]:
     lon = _longitude_putting(objects.lookup(name))
-    server = server_factory(make_settings(site=SiteSettings(latitude=LATITUDE, longitude=lon, elevation=46.0)))
+    server = server_factory(make_settings(site=SiteSettings(latitude=LATITUDE, longitude=lon, elevation=46.0),
+                                          emulator=EmulatorSettings(speed=SPEED, baud=0)))
     client = Client(f"http://127.0.0.1:{server.port}")
     client.command("connected", Connected="true")
     wait_until(lambda: client.status()["position"] is not None, what="a first position")
