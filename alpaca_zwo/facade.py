@@ -38,6 +38,7 @@ from ._exceptions import (
 from .clients import ClientActivity, ClientKey, current_client
 from .config import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .link import LinkCounters, LinkStatus, TraceEntry
+from .motion import Motion, MotionKind
 from .mount_state import MountSettings, MountState
 from .sky import (
     SIDEREAL_DEG_S,
@@ -94,6 +95,22 @@ class MotionView:
     side_of_pier: int | None = None
 
 
+@dataclass(frozen=True)
+class MotionReport:
+    """The server's slew, park or home now, or the last one and how it ended (the page's progress line).
+
+    ``ra``/``dec``: its sky target (mount frame); ``ha``: set instead of ``ra`` for a point fixed to the
+    ground (a custom park, a slew to Alt/Az); neither for a home (or a park at home): the pole.
+    """
+
+    kind: str
+    active: bool
+    error: str  # why it ended short ('' while running or when it arrived)
+    ra: float | None
+    ha: float | None
+    dec: float | None
+
+
 def _quiet(getter: Callable[[], Any], default: Any) -> Any:
     """A Telescope property for display: its ASCOM refusal (not connected, no position yet) shows as blank."""
     try:
@@ -109,6 +126,7 @@ class DeviceFacade:
         self.index = index
         self._telescope = telescope
         self._server = server
+        self._last_motion: Motion | None = None  # kept so the page can say how the last slew ended
 
     # -- identity and snapshots ------------------------------------------------------------------
 
@@ -167,6 +185,25 @@ class DeviceFacade:
             return self._telescope.target_right_ascension(), self._telescope.target_declination()
         except AlpacaError:
             return None
+
+    def motion_report(self) -> MotionReport | None:
+        """The running slew/park/home, else the last one with its outcome (manual moves and stops are not
+        kept: a STOP ends the slew it interrupts with error "stopped", which is what the page reports)."""
+        current = self._telescope.motion.motion
+        if current is not None and current.kind not in (MotionKind.MOVE, MotionKind.STOP):
+            self._last_motion = current
+        motion = self._last_motion
+        if motion is None:
+            return None
+        landing = motion.landing
+        ra = ha = dec = None
+        if landing is not None:
+            dec = landing.dec
+            if landing.ground:
+                ha = landing.ha
+            else:
+                ra = landing.ra
+        return MotionReport(motion.kind.value, not motion.done.is_set(), motion.error, ra, ha, dec)
 
     def link(self) -> LinkView:
         mount = self._telescope.mount

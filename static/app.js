@@ -379,6 +379,9 @@
       (Math.abs(offset) > 0.5 ? "; vs the server's clock: " + (offset >= 0 ? "+" : "") + offset.toFixed(1) + " s" : "") +
       ". LST " + fmtHours(s.time.lst) + ".", "muted small");
 
+    for (const listener of statusListeners) {
+      try { listener(s); } catch (err) { console.error(err); }
+    }
     renderControls(s);
     renderClients(s.clients);
     renderBridges(s.bridges || []);
@@ -575,9 +578,16 @@
   }
 
   function bindControls() {
-    $("btn-stop").addEventListener("click", () => {
+    // STOP says whether it reached the mount: the server answers only once the stop was written to it.
+    $("btn-stop").addEventListener("click", async () => {
       stopJog();
-      run("Stopped.", () => action("abort"));
+      try {
+        await action("abort");
+        message("Stopped: the mount acknowledged.", "info");
+      } catch (err) {
+        message("The stop may not have reached the mount: " + err.message, "error");
+      }
+      poll(true);
     });
     $("btn-connect").addEventListener("click", () => run("Mount connected.", () => action("connect")));
     $("btn-disconnect").addEventListener("click", () => run("Released the mount.", () => action("disconnect")));
@@ -887,6 +897,13 @@
     $("trace-panel").addEventListener("toggle", refreshTrace);
     $("log-panel").addEventListener("toggle", refreshLog);
   }
+
+  // The small hook the hand controller (handset.js) and the sky chart build on; the rest stays private.
+  const statusListeners = [];
+  window.alpacaZwo = Object.assign(window.alpacaZwo || {}, {
+    base, request, post, message, poll, fmtHours, fmtDeg, fmtAz,
+    onStatus: (listener) => { statusListeners.push(listener); },
+  });
 
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
   else start();

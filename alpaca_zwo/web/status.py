@@ -17,6 +17,7 @@ from ..facade import (
     SOLAR_SECONDS_PER_SIDEREAL_SECOND,
     ClientKey,
     DeviceFacade,
+    MotionReport,
     MotionView,
     MountState,
     ServerFacade,
@@ -57,6 +58,7 @@ def status_view(facade: ServerFacade, device: DeviceFacade, page_key: ClientKey)
     pier = _pier(motion.side_of_pier) if device.running else None
     tracking = bool(state.tracking and state.tracking.on)
     meridian = meridian_view(facade, device, ha, tracking and pier == "west")
+    report = motion_report_view(device.motion_report(), lst, settings.site.latitude, state)
     return {
         "device": device.index,
         "name": device.name,
@@ -68,7 +70,10 @@ def status_view(facade: ServerFacade, device: DeviceFacade, page_key: ClientKey)
         "initialised": state.initialised,
         "link": link_view(device),
         "position": position_view(settings, device, state, ha),
-        "target": target_view(device, lst, settings.site.latitude) if motion.slewing else None,
+        # A park's or home's own position while it runs, not the last GoTo's target (TargetRightAscension).
+        "target": ((report["target"] if report and report["active"] else None)
+                   or (target_view(device, lst, settings.site.latitude) if motion.slewing else None)),
+        "motion": report,
         "pier_side": pier,
         "pier_letter": state.pier,
         **_motion_view(state, motion, tracking),
@@ -110,6 +115,23 @@ def position_view(settings: Settings, device: DeviceFacade, state: MountState,
     return {"ra": finite(state.ra, 7), "dec": finite(state.dec), "ha": finite(ha), "alt": finite(alt),
             "az": finite(az), "floor": finite(floor, 3), "below_limit": alt < floor,
             "age_s": finite(state.age(device.mount_now()), 3)}
+
+
+def motion_report_view(report: MotionReport | None, lst: float, latitude: float,
+                       state: MountState) -> dict[str, Any] | None:
+    """The running (or last) slew, park or home: its kind, target and how it ended, for the progress line."""
+    if report is None:
+        return None
+    ra, dec = report.ra, report.dec
+    if report.ha is not None:
+        ra = (lst - report.ha) % 24.0
+    elif ra is None and state.status is not None and state.status.mode.name.lower() != "altaz":
+        ra, dec = lst, 90.0 if latitude >= 0 else -90.0  # home (and park at home): at the pole
+    target = None
+    if ra is not None and dec is not None:
+        alt, az = equatorial_to_horizontal(hour_angle(lst, ra), dec, latitude)
+        target = {"ra": finite(ra, 7), "dec": finite(dec), "alt": finite(alt), "az": finite(az)}
+    return {"kind": report.kind, "active": report.active, "error": report.error, "target": target}
 
 
 def target_view(device: DeviceFacade, lst: float, latitude: float) -> dict[str, Any] | None:
