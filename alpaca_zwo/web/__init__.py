@@ -20,6 +20,7 @@ from .goto import GotoResource, ObjectDetails, ObjectSearch, SyncResource
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
 from .settings import ServerResource, SettingsResource
+from .skyview import SkyResource
 from .status import StatusResource
 from .trace import TraceResource, TraceText
 
@@ -50,6 +51,7 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/telescope/{number}/object", ObjectDetails(web)),
         ("/setup/api/telescope/{number}/goto", GotoResource(web)),
         ("/setup/api/telescope/{number}/sync", SyncResource(web)),
+        ("/setup/api/telescope/{number}/sky", SkyResource(web)),
         ("/setup/api/telescope/{number}/trace.txt", TraceText(web)),
     ]
 
