@@ -68,7 +68,7 @@
 
   function fmtClock(iso) {
     if (!iso) return "\u2013";
-    return new Date(iso).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit" });
+    return new Date(iso).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", hourCycle: "h23" });
   }
 
   function where(pos) {

@@ -1,0 +1,217 @@
+"""The page as a hand controller in real Chromium (issue 25 items 1, 3, 4), at 390x844 and 1280x900.
+
+A person's actions by accessible names: type into "Find object", press Enter or tap a match, tap
+GoTo / Sync / Confirm / STOP. Judged by the emulator's truth (``model.snapshot()``) against places
+Skyfield computes with DE421, another library and ephemeris than the product's PyEphem. Each object is
+put about 1.5 h east of the meridian by choosing the site's longitude for now (tests/test_setup_goto.py),
+and the emulator runs on a 4x clock (landings are judged at the mount's own time). The phone runs in
+night mode. Screenshots of each view go to /tmp (docs/screenshots/ holds the ones looked at).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from selenium.webdriver.common.by import By
+from selenium.webdriver.common.keys import Keys
+from selenium.webdriver.remote.webdriver import WebDriver
+from selenium.webdriver.remote.webelement import WebElement
+from selenium.webdriver.support.ui import WebDriverWait
+
+from alpaca_zwo.config import EmulatorSettings, SiteSettings
+from alpaca_zwo.emulator import MountModel
+from alpaca_zwo.web import objects
+from tests.conftest import ServerFactory, make_settings
+from tests.support import wait_until
+from tests.test_setup_api import Client
+from tests.test_setup_goto import LATITUDE, SPEED, _longitude_putting, _truth_place
+from tests.test_sky_objects import separation_arcsec, skyfield_place
+
+TIMEOUT = 15
+SLEW_TIMEOUT = 120
+SIZES = {"phone": (390, 844), "desktop": (1280, 900)}
+FIND = "//input[@aria-label='Find object']"
+
+
+def button(driver: WebDriver, name: str) -> WebElement:
+    """The visible button a person would tap, by its text."""
+    found = [b for b in driver.find_elements(By.XPATH, f"//button[normalize-space()='{name}']") if b.is_displayed()]
+    assert len(found) == 1, f"{len(found)} visible buttons named {name!r}"
+    return found[0]
+
+
+def tap(driver: WebDriver, element: WebElement) -> None:
+    driver.execute_script("arguments[0].scrollIntoView({block: 'center'})", element)
+    element.click()
+
+
+def shown(driver: WebDriver, element_id: str) -> str:
+    """The element's text once it is displayed ('' while hidden)."""
+    element = driver.find_element(By.ID, element_id)
+    return element.text if element.is_displayed() else ""
+
+
+def shot(driver: WebDriver, view: str, size: str) -> None:
+    driver.execute_script("document.getElementById('handset').scrollIntoView({block: 'start'});"
+                          " window.scrollBy(0, -70)")
+    driver.save_screenshot(f"/tmp/alpaca-zwo-handset-{view}-{size}.png")
+
+
+class Scene:
+    """One server on a 4x emulator clock, its Alpaca/page client, the emulator's model and the page."""
+
+    def __init__(self, server_factory: ServerFactory, browser: WebDriver, size: str, first: str) -> None:
+        lon = _longitude_putting(objects.lookup(first))
+        server = server_factory(make_settings(site=SiteSettings(latitude=LATITUDE, longitude=lon, elevation=46.0),
+                                              emulator=EmulatorSettings(speed=SPEED, baud=0)))
+        self.client = Client(f"http://127.0.0.1:{server.port}")
+        self.client.command("connected", Connected="true")
+        wait_until(lambda: self.client.status()["position"] is not None, what="a first position")
+        emulator = server.emulators[0]
+        assert emulator is not None
+        self.model: MountModel = emulator.model
+        self.driver = browser
+        browser.set_window_size(*SIZES[size])
+        browser.get(f"http://127.0.0.1:{server.port}/setup")
+        WebDriverWait(browser, TIMEOUT).until(lambda d: d.find_element(By.ID, "link-pill").text.startswith("mount:"))
+        if size == "phone":
+            tap(browser, browser.find_element(By.ID, "btn-night"))  # at the telescope, in the dark
+
+    def put_up(self, name: str) -> None:
+        """Move the site so ``name`` stands 1.5 h east of the meridian now."""
+        lon = _longitude_putting(objects.lookup(name))
+        self.client.change({"site": {"latitude": LATITUDE, "longitude": lon, "elevation": 46.0}})
+
+    def find(self, text: str, tap_match: bool) -> None:
+        field = self.driver.find_element(By.XPATH, FIND)
+        tap(self.driver, field)
+        field.clear()
+        field.send_keys(text)
+        if tap_match:  # the short list of matches, then a tap on the first
+            WebDriverWait(self.driver, TIMEOUT).until(lambda d: d.find_element(By.ID, "find-list").is_displayed())
+            tap(self.driver, self.driver.find_element(By.XPATH, "//ul[@id='find-list']//button"))
+        else:
+            field.send_keys(Keys.ENTER)
+
+    def selected(self) -> str:
+        return shown(self.driver, "sel-name")
+
+
+@pytest.mark.parametrize("size", ["phone", "desktop"])
+def test_find_and_goto_lands_on_each_object(server_factory: ServerFactory, browser: WebDriver, size: str) -> None:
+    scene = Scene(server_factory, browser, size, "Vega")
+    driver, model, client = scene.driver, scene.model, scene.client
+    for query, name, tap_match in (("Vega", "Vega", False), ("M31", "M31", True), ("Jupiter", "Jupiter", True)):
+        if name != "Vega":
+            scene.put_up(name)
+        scene.find(query, tap_match)
+        WebDriverWait(driver, TIMEOUT).until(lambda d, name=name: scene.selected() == name)
+        panel = shown(driver, "selection")
+        for words in ("Alt / Az", "above the horizon and limits", "Tonight", "transit", "GoTo lands", "pier"):
+            assert words in panel, (words, panel)
+        if name == "Vega":
+            shot(driver, "selection", size)
+        before, _ = _truth_place(model)
+        tap(driver, button(driver, "GoTo"))
+        WebDriverWait(driver, TIMEOUT).until(lambda d: " left" in shown(d, "progress"))
+        progress = shown(driver, "progress")
+        assert progress.startswith(f"Slewing to {name}: "), progress
+        if name == "Vega":
+            shot(driver, "progress", size)
+        WebDriverWait(driver, SLEW_TIMEOUT).until(
+            lambda d, name=name: shown(d, "arrival").startswith(f"Arrived at {name}: RA "))
+        assert not shown(driver, "progress")
+        snapshot = model.snapshot()
+        assert snapshot["slew"] is None  # the page says "arrived" only when the mount is at rest
+        landed, when = _truth_place(model)
+        expected = skyfield_place(objects.lookup(client.session.get(
+            f"{client.api}/object", params={"id": name}, timeout=TIMEOUT).json()["id"]),
+            objects.Site(LATITUDE, client.value("sitelongitude"), 46.0), when)
+        assert separation_arcsec(before, expected) > 3600, name  # it really moved there
+        assert separation_arcsec(landed, expected) < 30.0, (name, landed, expected)
+        if name == "Vega":
+            shot(driver, "arrival", size)
+
+
+@pytest.mark.parametrize("size", ["phone", "desktop"])
+def test_search_list_and_the_sun_moves_nothing_without_confirm(server_factory: ServerFactory, browser: WebDriver,
+                                                                size: str) -> None:
+    scene = Scene(server_factory, browser, size, "Sun")
+    driver, model = scene.driver, scene.model
+    field = driver.find_element(By.XPATH, FIND)
+    tap(driver, field)
+    field.send_keys("Mar")  # a short list to choose from: Mars, Markab, Markeb, ...
+    WebDriverWait(driver, TIMEOUT).until(lambda d: len(d.find_elements(By.XPATH, "//ul[@id='find-list']//button")) > 1)
+    shot(driver, "search-list", size)
+    scene.find("Sun", False)
+    WebDriverWait(driver, TIMEOUT).until(lambda d: scene.selected() == "Sun")
+    before = model.snapshot()
+    tap(driver, button(driver, "GoTo"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: "solar filter" in shown(d, "confirm-text"))
+    assert button(driver, "Confirm") and button(driver, "Cancel")
+    shot(driver, "sun-confirm", size)
+    # The server has answered (the warning is its 409) and nothing moved: the emulator's own state.
+    after = model.snapshot()
+    assert after["slew"] is None and after["target_ra_h"] == before["target_ra_h"]
+    assert separation_arcsec((after["ra_h"], after["dec_deg"]), (before["ra_h"], before["dec_deg"])) < 60.0
+    tap(driver, button(driver, "Cancel"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: not shown(d, "confirm-text"))
+    assert model.snapshot()["slew"] is None and not scene.client.value("slewing")
+
+
+def test_sync_with_confirm_changes_what_alpaca_reads(server_factory: ServerFactory, browser: WebDriver) -> None:
+    """A GoTo landed 0.4° off Vega (a poor polar alignment); the user centres it by eye and syncs on it."""
+    scene = Scene(server_factory, browser, "phone", "Vega")
+    driver, client, model = scene.driver, scene.client, scene.model
+    vega = objects.lookup("Vega")
+    assert vega.ra_hours is not None and vega.dec_deg is not None
+    r = client.post("/setup/api/telescope/0/goto", {"id": f"{vega.ra_hours:.6f}h {vega.dec_deg + 0.4:.5f}"})
+    assert r.status_code == 200, r.text
+    wait_until(lambda: model.snapshot()["slew"] is None and not client.value("slewing"), SLEW_TIMEOUT, "the GoTo")
+    scene.find("Vega", False)
+    WebDriverWait(driver, TIMEOUT).until(lambda d: scene.selected() == "Vega")
+    off = (client.value("rightascension"), client.value("declination"))
+    tap(driver, button(driver, "Sync"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: "centred" in shown(d, "confirm-text"))
+    assert separation_arcsec(off, (client.value("rightascension"), client.value("declination"))) < 60.0  # not yet
+    tap(driver, button(driver, "Confirm"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: not shown(d, "confirm-text"))
+    _, when = _truth_place(scene.model)
+    expected = skyfield_place(objects.lookup("Vega"), objects.Site(LATITUDE, client.value("sitelongitude"), 46.0), when)
+    assert separation_arcsec(off, expected) > 1000
+    def read() -> tuple[float, float]:
+        return client.value("rightascension"), client.value("declination")
+
+    wait_until(lambda: separation_arcsec(read(), expected) < 30.0, TIMEOUT, "Alpaca reading the synced place")
+
+
+def test_stop_is_acknowledged_and_park_shows_the_park_target(server_factory: ServerFactory,
+                                                             browser: WebDriver) -> None:
+    scene = Scene(server_factory, browser, "desktop", "Vega")
+    driver, client, model = scene.driver, scene.client, scene.model
+    scene.find("Vega", False)
+    WebDriverWait(driver, TIMEOUT).until(lambda d: scene.selected() == "Vega")
+    tap(driver, button(driver, "GoTo"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: " left" in shown(d, "progress"))
+    tap(driver, button(driver, "STOP"))
+    WebDriverWait(driver, TIMEOUT).until(
+        lambda d: "Stopped: the mount acknowledged." in d.find_element(By.ID, "messages").text)
+    WebDriverWait(driver, TIMEOUT).until(lambda d: shown(d, "arrival").startswith("Stopped before reaching Vega"))
+    assert "because it was stopped" in shown(driver, "arrival")
+    wait_until(lambda: model.snapshot()["slew"] is None, TIMEOUT, "the mount at rest")
+    vega_target = (client.value("targetrightascension"), client.value("targetdeclination"))
+
+    tap(driver, button(driver, "Park"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: shown(d, "progress").startswith("Parking at the park position"))
+    status: dict[str, Any] = client.status()
+    target = status["target"]
+    assert status["motion"]["kind"] == "park" and target is not None
+    # The park position (home: the pole), not the last GoTo's target.
+    assert abs(target["dec"] - 90.0) < 0.01, target
+    assert separation_arcsec((target["ra"], target["dec"]), vega_target) > 3600 * 20
+    sky_target = driver.find_element(By.ID, "sky-target")
+    assert sky_target.is_displayed()
+    WebDriverWait(driver, SLEW_TIMEOUT).until(lambda d: shown(d, "arrival").startswith("Parked: "))
+    assert client.value("atpark")
+
