@@ -118,6 +118,8 @@ def test_find_and_goto_lands_on_each_object(server_factory: ServerFactory, brows
         progress = shown(driver, "progress")
         assert progress.startswith(f"Slewing to {name}: "), progress
         if name == "Vega":
+            # an estimated time once the rate of approach is known (two polls into the 51° slew)
+            WebDriverWait(driver, TIMEOUT).until(lambda d: "left, about " in shown(d, "progress"))
             shot(driver, "progress", size)
         WebDriverWait(driver, SLEW_TIMEOUT).until(
             lambda d, name=name: shown(d, "arrival").startswith(f"Arrived at {name}: RA "))
@@ -158,6 +160,15 @@ def test_search_list_and_the_sun_moves_nothing_without_confirm(server_factory: S
     tap(driver, button(driver, "Cancel"))
     WebDriverWait(driver, TIMEOUT).until(lambda d: not shown(d, "confirm-text"))
     assert model.snapshot()["slew"] is None and not scene.client.value("slewing")
+
+    # A refusal is shown in the server's words (Canopus never rises at 51.5° N).
+    scene.find("Canopus", False)
+    WebDriverWait(driver, TIMEOUT).until(lambda d: scene.selected() == "Canopus")
+    assert "never rises here" in shown(driver, "selection")
+    tap(driver, button(driver, "GoTo"))
+    WebDriverWait(driver, TIMEOUT).until(
+        lambda d: "GoTo Canopus refused: target is below the horizon limit" in d.find_element(By.ID, "messages").text)
+    assert model.snapshot()["slew"] is None
 
 
 def test_sync_with_confirm_changes_what_alpaca_reads(server_factory: ServerFactory, browser: WebDriver) -> None:
