@@ -191,6 +191,7 @@
     const outer = ((90 - MIN_ALT) / 90) * R;
     el("circle", { cx: 0, cy: 0, r: outer, class: "sky-bg" }, svg);
     sky.ground = el("path", { class: "sky-ground", d: "" }, svg);
+    el("g", { id: "sky-chart" }, svg); // stars, constellation lines, Sun, Moon, planets: skychart.js
     for (const alt of [30, 60]) {
       el("circle", { cx: 0, cy: 0, r: ((90 - alt) / 90) * R, class: "sky-ring" }, svg);
       const [, y] = project(180, alt);
@@ -902,6 +903,7 @@
   const statusListeners = [];
   window.alpacaZwo = Object.assign(window.alpacaZwo || {}, {
     base, request, post, message, poll, fmtHours, fmtDeg, fmtAz,
+    project, R, MIN_ALT, // the chart's projection, for skychart.js
     onStatus: (listener) => { statusListeners.push(listener); },
   });
 

@@ -71,7 +71,7 @@ def sky_now(latitude: float, longitude: float, elevation: float, when: datetime)
         bodies.append({"id": f"body:{name}", "name": name, "alt": round(math.degrees(float(body.alt)), 3),
                        "az": round(math.degrees(float(body.az)) % 360.0, 3), "mag": round(float(body.mag), 1),
                        "phase": round(float(body.phase), 1) if name == "Moon" else None})
-    return {"time": iso(when), "stars": stars, "bodies": bodies}
+    return {"time": iso(when), "latitude": latitude, "stars": stars, "bodies": bodies}
 
 
 class SkyResource(Resource):
