@@ -16,7 +16,6 @@ from datetime import datetime, timezone
 from typing import Any
 
 import pytest
-from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.actions.action_builder import ActionBuilder
 from selenium.webdriver.common.by import By
 from selenium.webdriver.remote.webdriver import WebDriver
@@ -195,7 +194,7 @@ def _rgb(colour: str) -> tuple[int, ...]:
 
 
 def test_night_mode_draws_the_sky_in_dim_red(server_factory: ServerFactory, browser: WebDriver) -> None:
-    chart = Chart(server_factory, browser, "phone", night=True)
+    Chart(server_factory, browser, "phone", night=True)
     paints = browser.execute_script(
         "return [...document.querySelectorAll('#sky-chart *')].filter((e) => e.tagName !== 'g').map((e) => {"
         " const s = getComputedStyle(e); return [e.tagName, e.getAttribute('class'), s.fill, s.stroke]; });")

@@ -1,0 +1,90 @@
+"""The sky chart's star list and lines (alpaca_zwo/web/sky_data.json) and its route (issue 25 item 2).
+
+The star positions are checked against the IAU WGSN's own J2000 places (star_names.csv, another source
+than the Hipparcos copy the file is built from); the route's alt/az against Skyfield with DE421.
+"""
+
+from __future__ import annotations
+
+import math
+from datetime import datetime, timezone
+
+import pytest
+from skyfield.api import Star, wgs84
+
+from alpaca_zwo.web import objects
+from alpaca_zwo.web.skyview import BODIES, catalogue, sky_now
+from tests.test_sky_objects import EPH, SKYFIELD_BODIES, TS, separation_arcsec
+
+SITE = (51.4769, -0.0005, 46.0)
+WHEN = datetime(2026, 11, 26, 1, 30, tzinfo=timezone.utc)
+
+
+def test_the_star_list_reaches_magnitude_4_5() -> None:
+    stars = catalogue()["stars"]
+    line_stars = {i for pair in catalogue()["lines"] for i in pair}
+    bright = [s for s in stars if s[3] <= 4.5]
+    assert len(bright) >= 900  # the Hipparcos stars to V 4.5: 921
+    assert all(s[3] <= 4.5 or i in line_stars for i, s in enumerate(stars))  # fainter only for the figures
+    assert [s[3] for s in stars] == sorted(s[3] for s in stars)  # brightest first: the page names the first few
+    assert len({s[0] for s in stars}) == len(stars)
+    assert all(0 <= s[1] < 360 and -90 <= s[2] <= 90 for s in stars)
+
+
+def test_named_stars_sit_where_the_iau_catalogue_puts_them() -> None:
+    checked = agree = 0
+    for hip, ra, dec, mag, name in catalogue()["stars"]:
+        if name is None:
+            continue
+        iau = objects.lookup("star:" + name)
+        assert iau.ra_hours is not None and iau.dec_deg is not None
+        # Binaries whose two sources place different components/photocentres: alpha Cen B (1.2″),
+        # xi UMa (7″), 36 Oph (14″); a chart pixel is ~2000″
+        loose = name in ("Toliman", "Alula Australis", "Guniibuu")
+        assert separation_arcsec((ra / 15, dec), (iau.ra_hours, iau.dec_deg)) < (20.0 if loose else 1.0), (hip, name)
+        agree += abs(mag - (iau.magnitude or 99.0)) < 0.15
+        checked += 1
+    assert checked >= 250
+    assert agree >= 0.95 * checked  # the rest are doubles (Acrux: the pair's 0.77 vs alpha1's 1.33)
+    assert "Vega" in {s[4] for s in catalogue()["stars"][:10]}
+
+
+def test_constellation_lines_join_listed_stars() -> None:
+    stars, lines = catalogue()["stars"], catalogue()["lines"]
+    assert len(lines) >= 600  # the 88 western figures: 672 segments
+    assert all(0 <= i < len(stars) and 0 <= j < len(stars) and i != j for i, j in lines)
+    hips = {(stars[i][0], stars[j][0]) for i, j in lines}
+    assert (91262, 91971) in hips or (91971, 91262) in hips  # Lyra: Vega - zeta1 Lyr
+    for i, j in lines:  # a figure's segment is short: no stray pairing across the sky
+        assert separation_arcsec((stars[i][1] / 15, stars[i][2]), (stars[j][1] / 15, stars[j][2])) < 40 * 3600
+
+
+def _skyfield_altaz(target: object) -> tuple[float, float]:
+    observer = EPH["earth"] + wgs84.latlon(SITE[0], SITE[1], elevation_m=SITE[2])
+    alt, az, _ = observer.at(TS.from_datetime(WHEN)).observe(target).apparent().altaz()
+    return alt.degrees, az.degrees
+
+
+def _off_deg(a: tuple[float, float], b: tuple[float, float]) -> float:
+    (alt1, az1), (alt2, az2) = (map(math.radians, a)), (map(math.radians, b))
+    c = math.sin(alt1) * math.sin(alt2) + math.cos(alt1) * math.cos(alt2) * math.cos(az1 - az2)
+    return math.degrees(math.acos(min(1.0, c)))
+
+
+@pytest.mark.parametrize("name", ["Vega", "Sirius", "Polaris", "Capella"])
+def test_star_places_agree_with_skyfield(name: str) -> None:
+    now = sky_now(*SITE, WHEN)
+    stars = catalogue()["stars"]
+    i = next(i for i, s in enumerate(stars) if s[4] == name)
+    assert len(now["stars"]) == len(stars)
+    truth = _skyfield_altaz(Star(ra_hours=stars[i][1] / 15, dec_degrees=stars[i][2]))
+    assert _off_deg(tuple(now["stars"][i]), truth) < 0.02  # the 0.01° rounding; a chart pixel is ~0.5°
+
+
+def test_body_places_agree_with_skyfield() -> None:
+    now = sky_now(*SITE, WHEN)
+    assert [b["name"] for b in now["bodies"]] == list(BODIES)
+    for body in now["bodies"]:
+        truth = _skyfield_altaz(EPH[SKYFIELD_BODIES[body["name"]]])
+        assert _off_deg((body["alt"], body["az"]), truth) < 0.01, body  # the Moon topocentric (parallax ~1°)
+        assert body["id"] == "body:" + body["name"] and objects.lookup(body["id"]).name == body["name"]
