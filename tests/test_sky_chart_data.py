@@ -42,10 +42,11 @@ def test_named_stars_sit_where_the_iau_catalogue_puts_them() -> None:
         # xi UMa (7″), 36 Oph (14″); a chart pixel is ~2000″
         loose = name in ("Toliman", "Alula Australis", "Guniibuu")
         assert separation_arcsec((ra / 15, dec), (iau.ra_hours, iau.dec_deg)) < (20.0 if loose else 1.0), (hip, name)
-        agree += abs(mag - (iau.magnitude or 99.0)) < 0.15
+        assert iau.magnitude is not None and mag < iau.magnitude + 0.3, (name, mag, iau.magnitude)
+        agree += abs(mag - iau.magnitude) < 0.1
         checked += 1
     assert checked >= 250
-    assert agree >= 0.95 * checked  # the rest are doubles (Acrux: the pair's 0.77 vs alpha1's 1.33)
+    assert agree >= 0.9 * checked  # the rest brighter here: doubles' combined light (Acrux 0.77, alpha1 Cru 1.33)
     assert "Vega" in {s[4] for s in catalogue()["stars"][:10]}
 
 
