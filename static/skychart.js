@@ -67,6 +67,7 @@
 
   function drawBodies(layer) {
     const g = el("g", { class: "sky-bodies" }, layer);
+    const taken = []; // label boxes' [x, y] in chart units: planets in conjunction get stacked labels
     for (const b of chart.bodies) {
       if (b.alt < hook.MIN_ALT) continue;
       const [x, y] = xy(b.alt, b.az);
@@ -74,7 +75,10 @@
       const node = el("g", { class: "sky-body " + b.name.toLowerCase() + (b.alt < 0 ? " below" : ""),
         "data-id": b.id, transform: "translate(" + x + " " + y + ")" }, g);
       el("circle", { cx: 0, cy: 0, r: big ? 3.2 : 1.9 }, node);
-      el("text", { x: big ? 4.5 : 3, y: 1.8, class: "sky-body-name" }, node).textContent = b.name;
+      let dy = 1.8;
+      while (taken.some(([tx, ty]) => Math.abs(tx - x) < 22 && Math.abs(ty - (y + dy)) < 5.5)) dy += 5.5;
+      taken.push([x, y + dy]);
+      el("text", { x: big ? 4.5 : 3, y: dy, class: "sky-body-name" }, node).textContent = b.name;
     }
   }
 
