@@ -155,3 +155,16 @@ def test_lost_link_gives_one_plain_message_and_greys_the_position(
     browser.execute_script("window.scrollTo(0, document.getElementById('status-h').getBoundingClientRect().top"
                            " + window.scrollY - 8)")
     browser.save_screenshot(f"/tmp/alpaca-zwo-first-contact-link-lost-{size}.png")
+
+
+def test_phone_width_puts_the_hand_controller_first_and_never_scrolls_sideways(
+        browser: WebDriver, server_factory: Callable[..., AlpacaZwoServer]) -> None:
+    server = server_factory()
+    AlpacaClient(server.port, timeout=TIMEOUT, call_timeout=TIMEOUT).command("connected", Connected="true")
+    open_page(browser, f"http://127.0.0.1:{server.port}/setup", SIZES["phone"])
+    overflow = browser.execute_script(
+        "return document.documentElement.scrollWidth - document.documentElement.clientWidth")
+    assert overflow <= 0, f"the page scrolls sideways by {overflow} px at phone width"
+    stop = browser.find_element(By.CSS_SELECTOR, ".controls-card").rect["y"]
+    status = browser.find_element(By.CSS_SELECTOR, ".status-card").rect["y"]
+    assert stop < status, "at phone width the controls (STOP, Find object) come before the status"
