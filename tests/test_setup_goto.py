@@ -210,3 +210,45 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
     seen = json.loads(out.stdout.strip().splitlines()[-1])
     assert seen["before"] == []
     assert {"ephem", "pyongc", "alpaca_zwo.web.objects"} <= set(seen["after"])  # a search loads them: the check sees
+
+
+def test_without_pyephem_the_page_says_what_to_install_and_the_rest_serves(tmp_path: Path) -> None:
+    """32-bit ARM installs leave PyEphem and pyongc out (no PyPI wheel): the search, the object panel
+    and the sky chart answer 503 with one line naming the package and the pip command; Alpaca, the
+    status feed and a GoTo by Alpaca are unaffected. ``sys.modules[name] = None`` is how Python itself
+    marks a module as absent: ``import ephem`` raises ModuleNotFoundError as on such a machine."""
+    script = textwrap.dedent(f"""
+        import json, sys
+        sys.modules["ephem"] = None
+        sys.modules["pyongc"] = None
+        from pathlib import Path
+        import requests
+        from tests.conftest import make_settings
+        from alpaca_zwo.server import AlpacaZwoServer
+        from alpaca_zwo.store import SettingsStore
+        from alpaca_zwo.web import setup_routes
+        server = AlpacaZwoServer(SettingsStore(make_settings(), Path({str(tmp_path)!r}) / "c.toml"), None,
+                                 extra_routes_factory=setup_routes)
+        server.start()
+        base = f"http://127.0.0.1:{{server.port}}"
+        requests.put(base + "/api/v1/telescope/0/connected", data={{"Connected": "true"}}, timeout=10)
+        replies = {{}}
+        for path in ("/setup/api/objects?q=Vega", "/setup/api/telescope/0/object?id=Vega",
+                     "/setup/api/telescope/0/sky", "/setup/api/telescope/0/status",
+                     "/api/v1/telescope/0/rightascension"):
+            r = requests.get(base + path, timeout=10)
+            replies[path] = [r.status_code, r.text]
+        server.stop()
+        print(json.dumps(replies))
+    """)
+    out = subprocess.run([sys.executable, "-c", script], cwd=REPO, capture_output=True, text=True, timeout=120,
+                         check=True)
+    replies = json.loads(out.stdout.strip().splitlines()[-1])
+    for path in ("/setup/api/objects?q=Vega", "/setup/api/telescope/0/object?id=Vega", "/setup/api/telescope/0/sky"):
+        status, body = replies[path]
+        assert status == 503, (path, status, body)
+        message = json.loads(body)["error"]
+        assert "'ephem'" in message and "pip install ephem" in message and "Traceback" not in message, message
+    assert replies["/setup/api/telescope/0/status"][0] == 200
+    assert replies["/api/v1/telescope/0/rightascension"][0] == 200
+    assert json.loads(replies["/api/v1/telescope/0/rightascension"][1])["ErrorNumber"] == 0

@@ -99,6 +99,15 @@ def api_errors(resp: falcon.Response) -> Iterator[None]:
         send(resp, {"error": f"the mount refused: {exc.meaning or exc.reply}"}, 409)
     except (LinkError, ProtocolError) as exc:
         send(resp, {"error": f"problem on the mount's link: {exc}"}, 409)
+    except ModuleNotFoundError as exc:  # an optional package this install lacks (32-bit ARM: PyEphem)
+        send(resp, {"error": missing_package((exc.name or "?").partition(".")[0])}, 503)
+
+
+def missing_package(name: str) -> str:
+    """What to do when a package the page needs is not installed, in a person's words."""
+    return (f"this needs the Python package {name!r}, which is not installed here (PyPI has no 32-bit ARM "
+            f"build of it): install it into the server's venv, e.g. '.venv/bin/pip install {name}' "
+            "(Raspberry Pi OS takes it from piwheels), then restart alpaca-zwo")
 
 
 def _host_of(value: str, scheme: str) -> str:
