@@ -229,13 +229,19 @@
     if (!o) return;
     const body = { id: o.id };
     if (confirm) body.confirm = true;
+    // Named before the request: a status poll can show the new slew before the POST's reply arrives,
+    // and a short slew can end within that poll ("Slewing to the target", "Arrived at the target").
+    const before = hs.ours;
+    if (verb === "goto") hs.ours = { name: o.name, started: Date.now() };
     let reply;
     try {
       reply = await postRaw(hook.base + "/" + verb, body);
     } catch (err) {
+      hs.ours = before;
       hook.message(err.message, "error");
       return;
     }
+    if (verb === "goto" && reply.status !== 200) hs.ours = before;
     if (reply.status === 409 && reply.data.confirm) {
       hs.pending = { verb, id: o.id };
       $("confirm-text").textContent = reply.data.confirm;
@@ -254,7 +260,6 @@
     hs.selected = Object.assign({}, o, reply.data);
     renderSelection();
     if (verb === "goto") {
-      hs.ours = { name: o.name, started: Date.now() };
       setArrival("", "");
       hook.message("GoTo " + o.name + " started.", "info");
     } else {
@@ -305,7 +310,8 @@
     if (running) {
       const name = m.kind === "slew" && hs.ours ? hs.ours.name : null;
       if (!hs.seen || hs.seen.kind !== m.kind) hs.approach = [];
-      hs.seen = { kind: m.kind, target: m.target, name };
+      const since = hs.seen && hs.seen.kind === m.kind ? hs.seen.since : Date.now();
+      hs.seen = { kind: m.kind, target: m.target, name, since };
       let text = (KIND_WORDS[m.kind] || "Moving to") + " " + (name || (m.kind === "park" ? "the park position" : m.kind === "find home" ? "home" : "the target"));
       if (m.target && s.position) {
         const left = separation(s.position.ra, s.position.dec, m.target.ra, m.target.dec);
@@ -323,7 +329,7 @@
   }
 
   function ended(s, m, seen) {
-    hs.ours = null;
+    if (hs.ours && hs.ours.started <= seen.since) hs.ours = null; // a newer GoTo keeps its name
     const pos = s.position;
     const what = seen.name || (seen.kind === "park" ? "the park position" : seen.kind === "find home" ? "home" : "the target");
     const left = pos && seen.target ? separation(pos.ra, pos.dec, seen.target.ra, seen.target.dec) : null;
