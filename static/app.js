@@ -586,7 +586,7 @@
         await action("abort");
         message("Stopped: the mount acknowledged.", "info");
       } catch (err) {
-        message("The stop may not have reached the mount: " + err.message, "error");
+        message("STOP: " + err.message, "error"); // the server says whether it reached the mount
       }
       poll(true);
     });

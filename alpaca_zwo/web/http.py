@@ -25,6 +25,7 @@ from ..facade import (
     ConfigError,
     InvalidValue,
     LinkError,
+    LinkTimeout,
     MountReplyError,
     ProtocolError,
     SettingsNotSaved,
@@ -98,9 +99,21 @@ def api_errors(resp: falcon.Response) -> Iterator[None]:
     except MountReplyError as exc:
         send(resp, {"error": f"the mount refused: {exc.meaning or exc.reply}"}, 409)
     except (LinkError, ProtocolError) as exc:
-        send(resp, {"error": f"problem on the mount's link: {exc}"}, 409)
+        send(resp, {"error": link_trouble(exc)}, 409)
     except ModuleNotFoundError as exc:  # an optional package this install lacks (32-bit ARM: PyEphem)
         send(resp, {"error": missing_package((exc.name or "?").partition(".")[0])}, 503)
+
+
+def link_trouble(exc: LinkError | ProtocolError) -> str:
+    """The mount's link failing, in a person's words: the page shows this under a thumb in the dark,
+    so no errno or device path (the log and the trace keep those)."""
+    if isinstance(exc, LinkTimeout):
+        return ("the mount did not answer in time, so this may not have reached it: check its power and "
+                "its USB cable or WiFi; alpaca-zwo keeps trying")
+    if isinstance(exc, ProtocolError):
+        return "the mount's reply was garbled, so this may not have taken effect: try again"
+    return ("the mount cannot be reached, so this did not reach it: check its power and its USB cable or "
+            "WiFi; alpaca-zwo keeps reconnecting (the log has the details)")
 
 
 def missing_package(name: str) -> str:

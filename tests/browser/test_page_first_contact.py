@@ -152,6 +152,12 @@ def test_lost_link_gives_one_plain_message_and_greys_the_position(
     assert DMS_ALT.fullmatch(text(browser, "alt")), text(browser, "alt")  # the last position, still shown
     assert "last known position" in text(browser, "age")
     assert body.count("The connection to the mount is lost") + body.count("The mount has stopped") == 1
+    # STOP says it did not reach the mount, in plain words (the raw error stays in the log and trace)
+    browser.find_element(By.ID, "btn-stop").click()
+    WebDriverWait(browser, TIMEOUT).until(lambda d: "STOP: " in text(d, "messages"))
+    said = text(browser, "messages")
+    assert "did not reach it" in said and "power" in said, said
+    assert "Errno" not in said and "socket://" not in said, said
     browser.execute_script("window.scrollTo(0, document.getElementById('status-h').getBoundingClientRect().top"
                            " + window.scrollY - 8)")
     browser.save_screenshot(f"/tmp/alpaca-zwo-first-contact-link-lost-{size}.png")
