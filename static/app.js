@@ -350,6 +350,10 @@
     setText("link-lost", lost, lost ? "lost" : "lost hidden");
     $("readout").classList.toggle("stale", Boolean(lost));
     $("sky").classList.toggle("stale", Boolean(lost));
+    // The mount's state rows are as old as the position: greyed too (Link and Data age say why).
+    for (const id of ["lst", "ha", "pier", "tracking", "slewing", "guiding", "park", "meridian"]) {
+      $(id).classList.toggle("stale", Boolean(lost));
+    }
     const utc = s.time.utc.replace("T", " ").replace(/\.\d+Z$/, " UTC");
     setText("utc", utc);
 

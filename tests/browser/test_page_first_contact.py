@@ -148,6 +148,9 @@ def test_lost_link_gives_one_plain_message_and_greys_the_position(
         assert error not in body, error  # ... and the page does not show it
     assert "stale" in (browser.find_element(By.ID, "readout").get_attribute("class") or "")
     assert "stale" in (browser.find_element(By.ID, "sky").get_attribute("class") or "")
+    for row in ("tracking", "park", "pier"):  # the mount's state is as old as its position
+        assert "stale" in (browser.find_element(By.ID, row).get_attribute("class") or ""), row
+    assert "stale" not in (browser.find_element(By.ID, "link").get_attribute("class") or "")
     assert float(browser.execute_script("return getComputedStyle(document.getElementById('readout')).opacity")) < 1
     assert DMS_ALT.fullmatch(text(browser, "alt")), text(browser, "alt")  # the last position, still shown
     assert "last known position" in text(browser, "age")
