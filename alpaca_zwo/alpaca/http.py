@@ -111,7 +111,7 @@ class _GuardedChannel(_ExpectContinueChannel):
     request_started: float | None = None
 
     def __init__(self, server: Any, sock: socket.socket, addr: Any, adj: Any, map: Any = None) -> None:
-        self.request_started = time.time()
+        self.request_started = time.monotonic()
         super().__init__(server, sock, addr, adj, map)
         self._peer_address = _peer(addr)
         if self.guard.admit(self._peer_address):
@@ -129,13 +129,13 @@ class _GuardedChannel(_ExpectContinueChannel):
 
     def received(self, data: bytes) -> bool:
         if self.request_started is None and data:
-            self.request_started = time.time()
+            self.request_started = time.monotonic()
         partial = self.request
         done: bool = super().received(data)
         if self.request is None:
             self.request_started = None  # every request received whole: idle until the next byte
         elif partial is not None and self.request is not partial:
-            self.request_started = time.time()  # one finished and the next began in these bytes
+            self.request_started = time.monotonic()  # one finished and the next began in these bytes
         return done
 
     def writable(self) -> bool:
@@ -143,7 +143,7 @@ class _GuardedChannel(_ExpectContinueChannel):
         # place to close one whose request stalls. A request being served (self.requests) is exempt.
         started = self.request_started
         if (started is not None and not self.requests and not self.will_close
-                and time.time() - started > self.guard.request_timeout):
+                and time.monotonic() - started > self.guard.request_timeout):
             log.debug("closing %s: request not received within %.0f s", self._peer_address,
                       self.guard.request_timeout)
             self.will_close = True
