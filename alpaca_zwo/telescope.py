@@ -325,8 +325,9 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         any slew: Slewing until at rest, AbortSlew stops it. Writing the current side does nothing.
         In alt-az mode (CanSetPierSide false) every write is NotImplemented, whatever its value: ConformU
         writes back the -1 it read there and counts an InvalidValue as a finding."""
-        if self._altaz_mode():
-            raise MemberNotImplemented("an alt-az mount has no pier side to set")
+        if not self.flips_by_limit():
+            raise MemberNotImplemented("an alt-az mount has no pier side to set" if self._altaz_mode() else
+                                       "flipping needs the mount's meridian settings (firmware 1.2.4 or later)")
         if value not in (PierSide.EAST, PierSide.WEST):
             raise InvalidValue(f"SideOfPier {value} is not 0 (pierEast) or 1 (pierWest)")
         self._require_connected()
@@ -351,7 +352,8 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         if self._altaz_mode():
             return int(PierSide.UNKNOWN)  # no pier side to predict in alt-az mode
         ha = sky.hour_angle(self._lst(), right_ascension)
-        return int(sky.kept_goto_side(ha, self._pier(), self._flip_limit_deg()))
+        side_rule = sky.kept_goto_side if self.flips_by_limit() else sky.goto_pier_side
+        return int(side_rule(ha, self._pier(), self._flip_limit_deg()))
 
     def _flip_limit_deg(self) -> float:
         meridian = self._meridian
@@ -481,13 +483,11 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
     def _keep_east_setting(self, ra: float) -> MeridianSettings | None:
         """The temporary limit that keeps a mount on pierEast there past the meridian (sky.kept_goto_side),
         None where the mount's own setting gives the side DestinationSideOfPier promises."""
-        if self._altaz_mode():
-            return None
-        ha, side = sky.hour_angle(self._lst(), ra), self._pier()
+        if not self.flips_by_limit():
+            return None  # alt-az, or firmware without :STa: the mount's own rule
+        ha, side, own_limit = sky.hour_angle(self._lst(), ra), self._pier(), self._flip_limit_deg()
         limit = sky.side_limit_deg(ha, PierSide.EAST)
-        own = sky.goto_pier_side(ha, side, self._flip_limit_deg())
-        if limit is None or own is not PierSide.WEST or sky.kept_goto_side(ha, side, self._flip_limit_deg()) \
-                is not PierSide.EAST:
+        if limit is None or sky.kept_goto_side(ha, side, own_limit) is sky.goto_pier_side(ha, side, own_limit):
             return None
         return side_setting(limit)
 

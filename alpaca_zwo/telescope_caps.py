@@ -83,8 +83,15 @@ class CapabilitiesMixin:
         return True
 
     def can_set_pier_side(self) -> bool:
-        """A German mount flips on a SideOfPier write (motion/flip.py); an alt-az mount has no pier side."""
-        return not self.mount.state.altaz
+        """A German mount flips on a SideOfPier write (motion/flip.py) by a temporary meridian limit, so
+        only with firmware that has meridian settings (1.2.4+); an alt-az mount has no pier side."""
+        return self.flips_by_limit()
+
+    def flips_by_limit(self) -> bool:
+        """Whether the server may choose a GOTO's pier side by a temporary :STa limit: equatorial mode and
+        firmware with meridian settings (unknown firmware: not yet read, assume the current kind)."""
+        state = self.mount.state
+        return not state.altaz and (state.info is None or state.info.has_meridian_settings)
 
     def can_set_declination_rate(self) -> bool:
         return True  # paid in guide pulses, which are timed moves in alt-az (motion/guiding.py)

@@ -22,6 +22,7 @@ from alpaca.exceptions import (
     NotConnectedException,
     NotImplementedException,
 )
+from alpaca.telescope import PierSide
 from alpaca.telescope import Telescope as AlpycaTelescope
 
 from alpaca_zwo.actions import ACTIONS
@@ -32,6 +33,7 @@ from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.store import SettingsStore
 from alpaca_zwo.wire_values import MeridianSettings, MountMode
 from tests.conftest import ServerFactory, make_settings
+from tests.support.wait import wait_until
 
 README = Path(__file__).resolve().parents[2] / "README.md"
 #: Every command an action may send (reads and writes): none may reach the mount for a bad parameter.
@@ -180,6 +182,24 @@ def test_meridian_settings_refused_on_old_firmware(server_factory: ServerFactory
             rig.action("zwo:MeridianSettings", parameters)
     assert not [r for r in rig.sent_since(start) if r.startswith((":STa", ":GTa"))]
     assert rig.model.meridian() == MeridianSettings()
+
+
+def test_old_firmware_cannot_flip_and_its_gotos_never_touch_the_meridian_setting(
+        server_factory: ServerFactory) -> None:
+    """Before 1.2.4 there is no :STa, so the server cannot choose a pier side: CanSetPierSide is false,
+    a SideOfPier write is NotImplemented, and a GOTO (which elsewhere may keep pierEast by a temporary
+    limit) goes out as a plain GOTO and is accepted."""
+    rig = _start(server_factory, firmware="1.2.0")
+    rig.scope.Connected = True
+    assert rig.scope.CanSetPierSide is False
+    start = rig.trace_length()
+    with pytest.raises(NotImplementedException, match=r"1\.2\.4"):
+        rig.scope.SideOfPier = PierSide.pierWest
+    rig.scope.Tracking = True
+    for ha in (2.0, 0.02):  # onto pierEast, then just past the meridian: the kept-east case
+        rig.scope.SlewToCoordinatesAsync((rig.scope.SiderealTime - ha) % 24.0, 30.0)
+        wait_until(lambda: not rig.scope.Slewing, 120.0, "the GOTO to end")
+    assert not [r for r in rig.sent_since(start) if r.startswith((":STa", ":GTa"))]
 
 
 def test_altitude_limits(rig: Rig) -> None:
