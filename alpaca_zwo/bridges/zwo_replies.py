@@ -27,7 +27,6 @@ import contextlib
 import dataclasses
 import logging
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -80,7 +79,6 @@ DRIVE_RATE = {"TQ": 0, "TL": 1, "TS": 2}
 GUIDE_DIRECTION = {"n": 0, "s": 1, "e": 2, "w": 3}  # Telescope.pulse_guide's Direction numbers
 #: :M?# -> (axis, sign): axis 0 is RA (+ east), axis 1 is Dec (+ north), as Telescope.move_axis takes them.
 MOVES = {"e": (0, 1.0), "w": (0, -1.0), "n": (1, 1.0), "s": (1, -1.0)}
-SETTINGS_TTL_S = 300.0
 
 
 class Refusal(Exception):
@@ -117,8 +115,6 @@ class ZwoResponder:
         self.telescope = telescope
         self._lock = threading.Lock()
         self.clock = ClockAndSite(telescope)
-        self._settings: MountSettings | None = None
-        self._settings_time = 0.0
         self._handlers = self._build_table()
         missing = {c.code for c in protocol.COMMANDS} - set(self._handlers)
         if missing:  # the shared command table grew: fail loudly rather than go silent
@@ -155,7 +151,6 @@ class ZwoResponder:
                 refusal = "e2#"
             raise Refusal(refusal, f":{code}# changes the mount for every program; "
                                    "allow it in [zwo_port] allow_dangerous")
-        self._settings = None  # whatever it changed, read the settings afresh
         if code == "STa":
             return self._set_meridian(match.argument, match.well_formed)
         reply = self.mount.raw(f":{code}{match.argument}#")
@@ -246,13 +241,15 @@ class ZwoResponder:
     # -- the few settings the poller does not read ---------------------------------------------
 
     def _mount_settings(self) -> MountSettings:
-        """One read of the mount-stored settings, shared by every program, refreshed every few minutes."""
+        """The mount-stored settings from the Mount's one shared cache (the page and the Actions use it
+        too): read here only when never read, changed by a command since (every sender marks it), or a
+        minute old; the read refills the cache for everyone."""
         with self._lock:
-            now = time.monotonic()
-            if self._settings is None or now - self._settings_time > SETTINGS_TTL_S:
-                self._settings = self.mount.read_settings()
-                self._settings_time = now
-            return self._settings
+            cache = self.mount.settings_cache
+            cached = cache.value
+            if cached is None or cache.due():
+                return self.mount.read_settings()
+            return cached
 
     def _setting_reply(self, render: Callable[[MountSettings], str], name: str) -> str | None:
         settings = self._mount_settings()
