@@ -214,8 +214,8 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
 
 def test_without_pyephem_the_page_says_what_to_install_and_the_rest_serves(tmp_path: Path) -> None:
     """32-bit ARM installs leave PyEphem and pyongc out (no PyPI wheel): the search, the object panel
-    and the sky chart answer 503 with one line naming the package and the pip command; Alpaca, the
-    status feed and a GoTo by Alpaca are unaffected. ``sys.modules[name] = None`` is how Python itself
+    and the sky chart answer 503 with one line naming the package and the pip command; Alpaca reads
+    and the status feed are unaffected. ``sys.modules[name] = None`` is how Python itself
     marks a module as absent: ``import ephem`` raises ModuleNotFoundError as on such a machine."""
     script = textwrap.dedent(f"""
         import json, sys

@@ -81,10 +81,10 @@ class SkyResource(Resource):
     def on_get(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
         with api_errors(resp):
             device = self.web.device(number)
-            body = sky_now(*device.site(), device.utc_now().astimezone(timezone.utc))  # ~2 ms for 1000 stars
             flag = req.get_param("catalogue")
             if flag not in (None, "true", "false", "1", "0"):
                 raise ApiError(400, "catalogue must be true or false")
+            body = sky_now(*device.site(), device.utc_now().astimezone(timezone.utc))  # ~2 ms for 1000 stars
             if flag in ("true", "1"):
                 data = catalogue()
                 body["catalogue"] = {"stars": data["stars"], "lines": data["lines"], "source": data["source"]}
