@@ -12,13 +12,13 @@ from pathlib import Path
 
 from . import __version__
 from ._exceptions import AlpacaZwoError, ConfigError
-from .config import Settings
-from .config_file import default_config_path, load_settings, remove_stale_temp_files
-from .devices import DeviceError, check_device, find_mount, format_candidates, list_candidates
-from .listen_check import host_problem, listen_problem, port_in_use
+from .alpaca.listen_check import host_problem, listen_problem, port_in_use
+from .config.file import default_config_path, load_settings, remove_stale_temp_files
+from .config.settings import Settings
+from .config.store import SettingsStore
 from .server import AlpacaZwoServer, Overrides
 from .service import KINDS, render
-from .store import SettingsStore
+from .zwo.devices import DeviceError, check_device, find_mount, format_candidates, list_candidates
 
 log = logging.getLogger("alpaca_zwo")
 

@@ -7,7 +7,7 @@ the one place that knows how the server, the telescopes, their mounts and links 
 
 Reads are snapshots only (the mount poller's state, the link's counters, the client registry):
 nothing here waits for the serial line except the explicit mount-settings read and the controls.
-The controls go through the same :class:`~alpaca_zwo.telescope.Telescope` methods the Alpaca API
+The controls go through the same :class:`~alpaca_zwo.telescope.device.Telescope` methods the Alpaca API
 uses, so the safety rules hold for both.
 
 The names the page needs from lower layers (value types, sky geometry, errors) are re-exported
@@ -37,10 +37,9 @@ from ._exceptions import (
     SettingsNotSaved,
 )
 from .clients import ClientActivity, ClientKey, current_client
-from .config import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
-from .link import LinkCounters, LinkStatus, TraceEntry
+from .config.settings import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .motion import Motion, MotionKind
-from .mount_state import MountSettings, MountState
+from .mount.state import MountSettings, MountState
 from .sky import (
     SIDEREAL_DEG_S,
     SOLAR_SECONDS_PER_SIDEREAL_SECOND,
@@ -48,11 +47,12 @@ from .sky import (
     hour_angle,
     local_sidereal_time,
 )
-from .wire_values import MeridianSettings
+from .zwo.link import LinkCounters, LinkStatus, TraceEntry
+from .zwo.wire_values import MeridianSettings
 
 if TYPE_CHECKING:
     from .server import AlpacaZwoServer
-    from .telescope import Telescope
+    from .telescope.device import Telescope
 
 log = logging.getLogger(__name__)
 
@@ -226,7 +226,7 @@ class DeviceFacade:
         """The settings stored in the mount as last read (kept while it is away; None if never read).
 
         No serial exchange: the mount keeps this copy fresh on every change that goes through the
-        server, after each (re)connect and by a slow periodic re-read (``settings_cache.py``), so the
+        server, after each (re)connect and by a slow periodic re-read (``mount/settings_cache.py``), so the
         settings view and the status feed cost the line nothing however many pages are open.
         """
         return self._telescope.mount.settings
@@ -243,7 +243,7 @@ class DeviceFacade:
         """Write one mount-held setting: meridian, upper_limit, lower_limit, limits_enabled, heavy_duty, buzzer,
         mode ("equatorial"/"altaz": sent now, in effect after the mount is restarted; see ``mount_mode``)."""
         if name == "mode":
-            from .actions import request_mode
+            from .telescope.actions import request_mode
 
             request_mode(self._telescope, value)
             return
@@ -263,7 +263,7 @@ class DeviceFacade:
         status = mount.state.status
         if not mount.running or not mount.link.status.connected or status is None:
             return None
-        from .actions import mode_report
+        from .telescope.actions import mode_report
 
         return mode_report(self._telescope, status)
 
@@ -387,7 +387,7 @@ class ServerFacade:
 
     def listen_problem(self, host: str, port: int) -> str | None:
         """Why a restart could not listen on ``host:port`` (None: it could; the port held now counts as free)."""
-        from .listen_check import listen_problem
+        from .alpaca.listen_check import listen_problem
 
         return listen_problem(host, port, self.port)
 

@@ -18,15 +18,15 @@ from . import __version__
 from .alpaca.app import create_app
 from .alpaca.hosts import HostGuard
 from .alpaca.http import HttpServer
+from .alpaca.local_addresses import page_urls
 from .alpaca.management import ServerInfo
 from .clients import ClientRegistry
-from .config import DeviceSettings, Settings
+from .config.settings import DeviceSettings, Settings
+from .config.store import SettingsStore
 from .facade import ServerFacade
-from .link import Link
-from .local_addresses import page_urls
-from .mount import Mount, utc_now
-from .store import SettingsStore
-from .telescope import Telescope
+from .mount.operations import Mount, utc_now
+from .telescope.device import Telescope
+from .zwo.link import Link
 
 log = logging.getLogger(__name__)
 
@@ -52,7 +52,7 @@ class EmbeddedEmulator:
 
     def __init__(self, settings: Settings, speed: float, baud: int, mode: str | None = None) -> None:
         from .emulator import EmulatorServer, MountModel, ScaledClock, preset
-        from .wire_values import MountMode
+        from .zwo.wire_values import MountMode
 
         self.clock = ScaledClock(speed=speed)
         config = settings.emulator

@@ -6,7 +6,7 @@ as a phantom pointing error or a wrong DestinationSideOfPier.
 
 Conventions (ASCOM's, not the ZWO protocol's):
 - hours for RA, HA and sidereal time; degrees for everything else;
-- longitude is EAST-positive (the mount's own east-negative sign is handled in ``protocol.py``);
+- longitude is EAST-positive (the mount's own east-negative sign is handled in ``zwo/protocol.py``);
 - azimuth is measured from north through east, in [0, 360);
 - UT1 is taken equal to UTC and TT = UTC + 69.184 s. The error this makes (|UT1-UTC| < 0.9 s) is
   far below the mount's one-second RA resolution, and nothing here needs leap-second tables.

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import requests
 
-from alpaca_zwo.config import EmulatorSettings, ServerSettings, Settings, SiteSettings, assign_unique_ids
+from alpaca_zwo.config.settings import EmulatorSettings, ServerSettings, Settings, SiteSettings, assign_unique_ids
+from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.store import SettingsStore
 
 SIDEREAL_PER_SI = 1.00273790935
 #: (RA arcsec/s, Dec arcsec/s): slow and fast comets, both signs.

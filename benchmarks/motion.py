@@ -110,9 +110,15 @@ class Bench:
     """The in-process server and the client that drives it."""
 
     def __init__(self, speed: float, baud: int, work: Path) -> None:
-        from alpaca_zwo.config import EmulatorSettings, ServerSettings, Settings, SiteSettings, assign_unique_ids
+        from alpaca_zwo.config.settings import (
+            EmulatorSettings,
+            ServerSettings,
+            Settings,
+            SiteSettings,
+            assign_unique_ids,
+        )
+        from alpaca_zwo.config.store import SettingsStore
         from alpaca_zwo.server import AlpacaZwoServer
-        from alpaca_zwo.store import SettingsStore
 
         settings = assign_unique_ids(Settings(
             server=ServerSettings(host="127.0.0.1", port=0, discovery_port=0),

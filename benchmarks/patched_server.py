@@ -30,8 +30,8 @@ PATCHES = ("urgent-stop", "fixed-rate-poll", "connection-limit")
 def _urgent_stop() -> None:
     import serial
 
-    from alpaca_zwo import protocol
-    from alpaca_zwo.link import Link, LinkState, Priority
+    from alpaca_zwo.zwo import protocol
+    from alpaca_zwo.zwo.link import Link, LinkState, Priority
 
     stop_codes = {"Q", "Qe", "Qw", "Qn", "Qs"}
     original_open = Link._open_port
@@ -69,7 +69,7 @@ def _urgent_stop() -> None:
 
 
 def _fixed_rate_poll() -> None:
-    from alpaca_zwo.mount import Mount
+    from alpaca_zwo.mount.operations import Mount
 
     class FixedRateEvent(threading.Event):
         """``wait(period)`` counts the period from the start of the last poll."""

@@ -10,9 +10,9 @@ from typing import Any
 
 import pytest
 
-from alpaca_zwo.config import EmulatorSettings, ServerSettings, Settings, SiteSettings, assign_unique_ids
+from alpaca_zwo.config.settings import EmulatorSettings, ServerSettings, Settings, SiteSettings, assign_unique_ids
+from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.server import AlpacaZwoServer, Overrides
-from alpaca_zwo.store import SettingsStore
 
 
 def make_settings(**sections: Any) -> Settings:

@@ -23,11 +23,11 @@ from alpaca.telescope import AlignmentModes, GuideDirections, PierSide, Telescop
 from alpaca.telescope import Telescope as AlpycaTelescope
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import EmulatorSettings
+from alpaca_zwo.config.settings import EmulatorSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.web import CSRF_HEADER
-from alpaca_zwo.wire_values import MountMode
+from alpaca_zwo.zwo.wire_values import MountMode
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
 

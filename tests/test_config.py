@@ -1,4 +1,4 @@
-"""config.py: defaults, TOML round trips, UniqueID persistence, validation messages, horizon profile."""
+"""config/settings.py: defaults, TOML round trips, UniqueID persistence, validation messages, horizon profile."""
 
 from __future__ import annotations
 
@@ -16,9 +16,11 @@ import tomllib
 from hypothesis import given
 from hypothesis import strategies as st
 
-from alpaca_zwo import config, config_file
 from alpaca_zwo._exceptions import ConfigError
-from alpaca_zwo.config import (
+from alpaca_zwo.config import file as config_file
+from alpaca_zwo.config import settings as config
+from alpaca_zwo.config.file import load_settings, save_settings
+from alpaca_zwo.config.settings import (
     DeviceSettings,
     LimitSettings,
     ParkSettings,
@@ -29,7 +31,6 @@ from alpaca_zwo.config import (
     settings_from_dict,
     settings_to_dict,
 )
-from alpaca_zwo.config_file import load_settings, save_settings
 
 
 def write(path: Path, text: str) -> Path:

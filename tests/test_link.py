@@ -9,11 +9,11 @@ from collections.abc import Iterator
 
 import pytest
 
-from alpaca_zwo import protocol as p
-from alpaca_zwo import wire_values
 from alpaca_zwo._exceptions import LinkError, LinkTimeout, MotionCancelled, MountReplyError, ProtocolError
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
-from alpaca_zwo.link import Link, LinkState, Priority
+from alpaca_zwo.zwo import protocol as p
+from alpaca_zwo.zwo import wire_values
+from alpaca_zwo.zwo.link import Link, LinkState, Priority
 
 
 @pytest.fixture

@@ -21,11 +21,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from alpaca_zwo import protocol as p
-from alpaca_zwo import request_framer
 from alpaca_zwo._exceptions import LinkTimeout, MountReplyError, ProtocolError
 from alpaca_zwo.emulator import ManualClock, MountModel, Responder
-from alpaca_zwo.link import Link
+from alpaca_zwo.zwo import protocol as p
+from alpaca_zwo.zwo import request_framer
+from alpaca_zwo.zwo.link import Link
 
 
 class JunkMount:

@@ -23,10 +23,10 @@ from alpaca.telescope import GuideDirections, PierSide
 from alpaca.telescope import Telescope as AlpycaTelescope
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import EmulatorSettings, LimitSettings
+from alpaca_zwo.config.settings import EmulatorSettings, LimitSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.wire_values import MeridianSettings
+from alpaca_zwo.zwo.wire_values import MeridianSettings
 from tests.conftest import ServerFactory, make_settings
 from tests.support.wait import wait_until
 

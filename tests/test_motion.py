@@ -16,7 +16,7 @@ from typing import Any
 
 import pytest
 
-from alpaca_zwo.config import EmulatorSettings, LimitSettings, SafetySettings
+from alpaca_zwo.config.settings import EmulatorSettings, LimitSettings, SafetySettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S
@@ -172,7 +172,7 @@ def test_coordinate_slews_land_within_one_arcsecond(server_factory: ServerFactor
 
 
 def test_custom_park_position_is_reached_exactly(server_factory: ServerFactory) -> None:
-    from alpaca_zwo.config import ParkSettings
+    from alpaca_zwo.config.settings import ParkSettings
 
     server = _server(server_factory, park=ParkSettings(mode="custom", ha_hours=-1.25, dec_deg=30.0))
     api, model = _api(server), _model(server)

@@ -8,12 +8,12 @@ from datetime import datetime, timedelta, timezone
 import pytest
 
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
-from alpaca_zwo.estimator import PositionEstimator
-from alpaca_zwo.link import Link
-from alpaca_zwo.mount import Mount
-from alpaca_zwo.mount_state import MountState
+from alpaca_zwo.mount.estimator import PositionEstimator
+from alpaca_zwo.mount.operations import Mount
+from alpaca_zwo.mount.state import MountState
 from alpaca_zwo.sky import SIDEREAL_DEG_S
-from alpaca_zwo.wire_values import Direction, TrackRate
+from alpaca_zwo.zwo.link import Link
+from alpaca_zwo.zwo.wire_values import Direction, TrackRate
 
 SITE = (48.8566, 2.3522)  # Paris: east-positive longitude
 

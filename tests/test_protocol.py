@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from alpaca_zwo import protocol as p
-from alpaca_zwo import request_framer
-from alpaca_zwo import wire_values as w
 from alpaca_zwo._exceptions import MountReplyError, ProtocolError
+from alpaca_zwo.zwo import protocol as p
+from alpaca_zwo.zwo import request_framer
+from alpaca_zwo.zwo import wire_values as w
 
 # Every command of ZWO's V1.1 document and every real command of field-notes §2 named in the issue.
 DOCUMENT_CODES = {

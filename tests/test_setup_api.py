@@ -21,11 +21,11 @@ import pytest
 import requests
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import EmulatorSettings, ServerSettings, StellariumSettings
-from alpaca_zwo.config_file import load_settings
+from alpaca_zwo.config.file import load_settings
+from alpaca_zwo.config.settings import EmulatorSettings, ServerSettings, StellariumSettings
+from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S
-from alpaca_zwo.store import SettingsStore
 from alpaca_zwo.web import CSRF_HEADER, setup_routes, static_dir
 from tests.conftest import make_settings
 from tests.support import AlpacaClient, wait_until

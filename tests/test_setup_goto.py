@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import EmulatorSettings, SiteSettings
+from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.web import objects
@@ -189,7 +189,7 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
         import requests
         from tests.conftest import make_settings
         from alpaca_zwo.server import AlpacaZwoServer
-        from alpaca_zwo.store import SettingsStore
+        from alpaca_zwo.config.store import SettingsStore
         from alpaca_zwo.web import setup_routes
         server = AlpacaZwoServer(SettingsStore(make_settings(), Path({str(tmp_path)!r}) / "c.toml"), None,
                                  extra_routes_factory=setup_routes)
@@ -225,7 +225,7 @@ def test_without_pyephem_the_page_says_what_to_install_and_the_rest_serves(tmp_p
         import requests
         from tests.conftest import make_settings
         from alpaca_zwo.server import AlpacaZwoServer
-        from alpaca_zwo.store import SettingsStore
+        from alpaca_zwo.config.store import SettingsStore
         from alpaca_zwo.web import setup_routes
         server = AlpacaZwoServer(SettingsStore(make_settings(), Path({str(tmp_path)!r}) / "c.toml"), None,
                                  extra_routes_factory=setup_routes)

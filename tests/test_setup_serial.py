@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 import requests
 
-from alpaca_zwo.config import ServerSettings
+from alpaca_zwo.config.settings import ServerSettings
 from alpaca_zwo.emulator import EmulatorServer
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conftest import ServerFactory, make_settings

@@ -19,7 +19,7 @@ import pytest
 
 from alpaca_zwo import sky
 from alpaca_zwo._exceptions import ERR_INTERRUPTED
-from alpaca_zwo.config import EmulatorSettings
+from alpaca_zwo.config.settings import EmulatorSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conftest import ServerFactory, make_settings

@@ -17,10 +17,11 @@ from typing import Any
 
 import pytest
 
-from alpaca_zwo import sky, wire_values
-from alpaca_zwo.config import EmulatorSettings, SiteSettings
+from alpaca_zwo import sky
+from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.zwo import wire_values
 from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient, wait_until
 
@@ -170,7 +171,7 @@ def test_the_next_alpaca_read_after_a_site_or_clock_change_reflects_it(server_fa
 def test_zwo_port_gr_right_after_sg_is_for_the_new_site(server_factory: ServerFactory) -> None:
     """The citrascope-style check on the shared ZWO port: ``:Sg…#`` then at once ``:GR#`` reads what
     the mount itself reads for the new site (today 480 s of RA off after a 2° change)."""
-    from alpaca_zwo.config import ZwoPortSettings
+    from alpaca_zwo.config.settings import ZwoPortSettings
     from tests.bridges.test_zwo_port import ZwoClient
 
     server = server_factory(make_settings(

@@ -36,14 +36,14 @@ from alpaca import management as alpyca_management
 from alpaca import telescope as alpyca_telescope
 
 from alpaca_zwo import __version__
-from alpaca_zwo.actions import supported_actions
 from alpaca_zwo.alpaca.members import DEVICE_MEMBERS, Member
-from alpaca_zwo.config import DeviceSettings, EmulatorSettings, LimitSettings, Settings
-from alpaca_zwo.config_file import load_settings, save_settings
+from alpaca_zwo.config.file import load_settings, save_settings
+from alpaca_zwo.config.settings import DeviceSettings, EmulatorSettings, LimitSettings, Settings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
-from alpaca_zwo.wire_values import MeridianSettings, MountMode
+from alpaca_zwo.telescope.actions import supported_actions
+from alpaca_zwo.zwo.wire_values import MeridianSettings, MountMode
 from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient, wait_until
 

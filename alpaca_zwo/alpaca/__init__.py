@@ -1,6 +1,12 @@
-"""The Alpaca protocol layer: HTTP routing, parameters, replies and the management API.
+"""The Alpaca front door: HTTP routing, parameters, replies, errors and the management API.
 
-It knows Alpaca and nothing of ZWO: a device is anything implementing :class:`AlpacaDevice`.
+Owns the falcon app and the member table, strict parameters, rendering, waitress with its
+per-address connection limit, UDP discovery (32227), the mDNS advertiser, the DNS-rebinding host
+guard, and how clients reach this machine (``listen_check``: can we listen on a host and port;
+``local_addresses``: this machine's LAN addresses for the start banner). It knows Alpaca and nothing
+of ZWO: a device is anything implementing :class:`AlpacaDevice`.
+
+May import only ``clients`` and ``_exceptions``.
 """
 
 from __future__ import annotations

@@ -43,8 +43,8 @@ from .._exceptions import AlpacaError
 from ..clients import ClientKey, current_client
 
 if TYPE_CHECKING:
-    from ..config import SiteSettings, StellariumSettings
-    from ..telescope import Telescope
+    from ..config.settings import SiteSettings, StellariumSettings
+    from ..telescope.device import Telescope
 
 log = logging.getLogger(__name__)
 

@@ -13,12 +13,12 @@ import threading
 from datetime import datetime, timedelta, timezone
 from typing import TYPE_CHECKING
 
-from .. import wire_values
 from .._exceptions import AlpacaError, InvalidValue, ProtocolError
-from ..wire_values import format_date, format_time, format_utc_offset
+from ..zwo import wire_values
+from ..zwo.wire_values import format_date, format_time, format_utc_offset
 
 if TYPE_CHECKING:
-    from ..telescope import Telescope
+    from ..telescope.device import Telescope
     from .zwo_replies import Session
 
 __all__ = ["ClockAndSite"]

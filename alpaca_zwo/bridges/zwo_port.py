@@ -4,7 +4,7 @@ INDI's ``indi_lx200am5`` and other ZWO/LX200 drivers that can reach a mount over
 instead of to the mount, and share it with every Alpaca client: what they ask is answered from the
 server's state snapshot (:mod:`.zwo_replies`), what they command goes through the Telescope.
 
-Each program gets a thread, its own :class:`~alpaca_zwo.request_framer.RequestFramer` (so junk from one
+Each program gets a thread, its own :class:`~alpaca_zwo.zwo.request_framer.RequestFramer` (so junk from one
 program is resynchronised without touching the others) and its own target and move speeds. While
 any program is connected the bridge holds the Telescope connected as one client; each program also
 appears in the client registry under its own key, so the MoveAxis watchdog stops a move whose
@@ -26,12 +26,12 @@ from typing import TYPE_CHECKING, Any
 
 from .._exceptions import AlpacaError
 from ..clients import ClientKey, current_client
-from ..protocol import match_command
-from ..request_framer import RequestFramer
+from ..zwo.protocol import match_command
+from ..zwo.request_framer import RequestFramer
 from .zwo_replies import Refusal, Session, ZwoResponder
 
 if TYPE_CHECKING:
-    from ..telescope import Telescope
+    from ..telescope.device import Telescope
 
 __all__ = ["ZwoPortBridge"]
 

@@ -1,6 +1,6 @@
 """What the shared ZWO port answers: one request body in, the reply a real mount would send out.
 
-The mount's protocol, served on top of a :class:`~alpaca_zwo.telescope.Telescope` so that a ZWO
+The mount's protocol, served on top of a :class:`~alpaca_zwo.telescope.device.Telescope` so that a ZWO
 or LX200 driver (INDI's ``indi_lx200am5``) shares the mount with Alpaca clients:
 
 * Queries are answered from the state snapshot (``telescope.mount.state`` and the Telescope's
@@ -8,7 +8,7 @@ or LX200 driver (INDI's ``indi_lx200am5``) shares the mount with Alpaca clients:
   (meridian, limits, heavy duty, buzzer, daylight saving) come from one cached read.
 * Motion and settings go through the Telescope's public methods, so horizon and altitude limits,
   the parked state, the MoveAxis watchdog and abort-from-anyone apply exactly as for Alpaca.
-* Replies use ``protocol.py``'s formatters and the mount's framing: bare ``1``/``0`` from setters,
+* Replies use ``zwo/protocol.py``'s formatters and the mount's framing: bare ``1``/``0`` from setters,
   bare ``0`` or ``eN#`` from a GOTO, ``#``-terminated queries, nothing for motion or unknown codes.
 
 Telescope refusals become the mount's own error codes (field notes §4.1): a target under the
@@ -31,7 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from .. import protocol, sky, wire_values
+from .. import sky
 from .._exceptions import (
     AlpacaError,
     AlpacaZwoError,
@@ -43,11 +43,12 @@ from .._exceptions import (
     ProtocolError,
 )
 from ..clients import ClientKey
-from ..config import ZWO_PORT_DANGEROUS, horizon_altitude_at
-from ..mount_state import MountSettings
-from ..protocol import ReplyKind, char_reply
+from ..config.settings import ZWO_PORT_DANGEROUS, horizon_altitude_at
+from ..mount.state import MountSettings
 from ..sky import SIDEREAL_DEG_S
-from ..wire_values import (
+from ..zwo import protocol, wire_values
+from ..zwo.protocol import ReplyKind, char_reply
+from ..zwo.wire_values import (
     SLEW_SPEEDS,
     MeridianSettings,
     MountStatus,
@@ -66,8 +67,8 @@ from ..wire_values import (
 from .zwo_clock_site import ClockAndSite
 
 if TYPE_CHECKING:
-    from ..mount import Mount
-    from ..telescope import Telescope
+    from ..mount.operations import Mount
+    from ..telescope.device import Telescope
 
 __all__ = ["Refusal", "Session", "ZwoResponder"]
 

@@ -7,11 +7,13 @@ and a pseudo-terminal with baud-rate pacing; ``Faults`` makes the line misbehave
     model = MountModel(ManualClock(), FirmwareVariant(home_flag="never"))
     with EmulatorServer(model, port=0, baud=0) as server:
         ...  # connect to 127.0.0.1:server.port
+
+May import ``zwo`` (protocol, wire values, request framer, firmware; never the link) and ``sky`` only.
 """
 
 from __future__ import annotations
 
-from ..firmware import PRESETS, FirmwareVariant, preset
+from ..zwo.firmware import PRESETS, FirmwareVariant, preset
 from .clock import ManualClock, ScaledClock
 from .control import ControlServer
 from .faults import Faults

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 from .. import sky
 from ..sky import SIDEREAL_DEG_S
-from ..wire_values import MountMode
+from ..zwo.wire_values import MountMode
 from .state import DEC, RA, ModelBase, Slew, ramp
 
 #: Undisturbed tracking time after which a zenith transit takes the altitude over the top (mount s).

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from datetime import datetime, timezone
 from types import FrameType
 
-from ..firmware import (
+from ..zwo.firmware import (
     DEFAULT_PRESET,
     GH_REPLIES,
     GPS_REPLIES,
@@ -30,7 +30,7 @@ from ..firmware import (
     FirmwareVariant,
     preset,
 )
-from ..wire_values import MountMode
+from ..zwo.wire_values import MountMode
 from .clock import ScaledClock
 from .control import ControlServer
 from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, MountModel

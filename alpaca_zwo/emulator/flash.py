@@ -3,7 +3,7 @@ buzzer and Bluetooth identity (kept across power cycles and the ``reboot`` fault
 
 from __future__ import annotations
 
-from ..wire_values import MeridianSettings, MountMode
+from ..zwo.wire_values import MeridianSettings, MountMode
 from .state import ModelBase
 
 

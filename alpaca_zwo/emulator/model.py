@@ -37,9 +37,9 @@ from datetime import datetime, timezone
 from typing import Any
 
 from .. import sky
-from ..firmware import FirmwareVariant
 from ..sky import SIDEREAL_DEG_S
-from ..wire_values import SLEW_SPEEDS, MountMode, MountStatus
+from ..zwo.firmware import FirmwareVariant
+from ..zwo.wire_values import SLEW_SPEEDS, MountMode, MountStatus
 from .altaz import AltAzRules
 from .clock import Clock
 from .clocksite import ClockAndSite

@@ -11,7 +11,7 @@ import math
 
 from .. import sky
 from ..sky import LUNAR_DEG_S, SIDEREAL_DEG_S, SOLAR_DEG_S
-from ..wire_values import MountMode
+from ..zwo.wire_values import MountMode
 from .altaz import SETTLED_S, axes_to_ha_dec_altaz, follow_sky
 from .state import (
     AT_HOME_DEG,

@@ -1,6 +1,6 @@
 """Request text -> reply text, with the exact framing of a real ZWO AM mount.
 
-The model deals in numbers and codes; the reply forms come from ``protocol.py`` (its command
+The model deals in numbers and codes; the reply forms come from ``zwo/protocol.py`` (its command
 table's reply kinds and its formatters), the same ones the driver reads replies with. Framing rules
 (field notes §2-§4): setters answer one bare ``1``/``0`` with no ``#`` (a handler answers True or
 False and ``protocol.flag_reply`` frames it by the command's kind); a successful GOTO a bare
@@ -14,11 +14,11 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from .. import protocol, wire_values
 from .._exceptions import ProtocolError
-from ..firmware import has_feature
-from ..protocol import error_reply
-from ..wire_values import (
+from ..zwo import protocol, wire_values
+from ..zwo.firmware import has_feature
+from ..zwo.protocol import error_reply
+from ..zwo.wire_values import (
     MountMode,
     format_azimuth,
     format_date,

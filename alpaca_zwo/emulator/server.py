@@ -24,7 +24,7 @@ import threading
 import time
 from typing import Any
 
-from ..request_framer import RequestFramer
+from ..zwo.request_framer import RequestFramer
 from .faults import FaultEvent, Faults
 from .model import MountModel
 from .responder import Responder

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 from datetime import datetime
 
 from .. import sky
-from ..firmware import FirmwareVariant
-from ..wire_values import MeridianSettings, MountMode
+from ..zwo.firmware import FirmwareVariant
+from ..zwo.wire_values import MeridianSettings, MountMode
 from .clock import Clock
 from .faults import Faults
 

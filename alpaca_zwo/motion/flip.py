@@ -22,8 +22,8 @@ import threading
 from collections.abc import Callable
 
 from .._exceptions import LinkError, MountReplyError, ProtocolError, driver_error
-from ..mount import Mount
-from ..wire_values import MeridianSettings
+from ..mount.operations import Mount
+from ..zwo.wire_values import MeridianSettings
 from .kinds import MAX_MOTION_S, Motion
 from .supervisor import MotionSupervisor
 

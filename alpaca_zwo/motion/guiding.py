@@ -35,9 +35,9 @@ from .._exceptions import (
     ProtocolError,
     driver_error,
 )
-from ..mount import PULSE_CHUNK_MS, Mount
+from ..mount.operations import PULSE_CHUNK_MS, Mount
 from ..sky import SIDEREAL_DEG_S
-from ..wire_values import Direction
+from ..zwo.wire_values import Direction
 from .kinds import Motion, MotionKind, Pulse
 
 if TYPE_CHECKING:

@@ -9,7 +9,7 @@ from enum import Enum
 
 from ..clients import ClientKey
 from ..sky import SIDEREAL_DEG_S
-from ..wire_values import Direction
+from ..zwo.wire_values import Direction
 
 log = logging.getLogger(__name__)
 

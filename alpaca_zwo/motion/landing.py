@@ -24,10 +24,10 @@ from .._exceptions import (
     MountReplyError,
     ProtocolError,
 )
-from ..mount import PULSE_CHUNK_MS, Mount
-from ..mount_state import MountState
+from ..mount.operations import PULSE_CHUNK_MS, Mount
+from ..mount.state import MountState
 from ..sky import SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
-from ..wire_values import Direction
+from ..zwo.wire_values import Direction
 from .kinds import Landing, Motion, Phase, _wrap12
 
 log = logging.getLogger(__name__)

@@ -16,10 +16,10 @@ from .. import sky
 from .._exceptions import (
     InvalidOperation,
 )
-from ..config import Settings, horizon_altitude_at
-from ..mount import Mount
-from ..mount_state import MountState
-from ..wire_values import MountMode
+from ..config.settings import Settings, horizon_altitude_at
+from ..mount.operations import Mount
+from ..mount.state import MountState
+from ..zwo.wire_values import MountMode
 from .kinds import DECELERATION_DEG_S2, TICK_S, _wrap12
 
 log = logging.getLogger(__name__)

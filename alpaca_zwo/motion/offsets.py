@@ -36,10 +36,10 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from .._exceptions import LinkError, MotionCancelled, MountReplyError, ProtocolError
-from ..mount import PULSE_CHUNK_MS, Mount
-from ..mount_state import MountState
+from ..mount.operations import PULSE_CHUNK_MS, Mount
+from ..mount.state import MountState
 from ..sky import SIDEREAL_DEG_S, SOLAR_SECONDS_PER_SIDEREAL_SECOND
-from ..wire_values import Direction
+from ..zwo.wire_values import Direction
 from .guiding import direction_sign
 
 if TYPE_CHECKING:

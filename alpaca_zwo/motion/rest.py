@@ -13,8 +13,8 @@ from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ..mount import Mount
-from ..mount_state import MountState
+from ..mount.operations import Mount
+from ..mount.state import MountState
 from ..sky import SIDEREAL_HOURS_PER_S
 from .kinds import MAX_AXIS_DEG_S, _wrap12
 

@@ -56,9 +56,9 @@ from .._exceptions import (
     driver_error,
 )
 from ..clients import ClientKey, ClientRegistry
-from ..config import Settings
-from ..mount import Mount
-from ..mount_state import MountState
+from ..config.settings import Settings
+from ..mount.operations import Mount
+from ..mount.state import MountState
 from .guiding import GuidingMixin, TimedMove
 from .kinds import (
     DECELERATION_DEG_S2,

@@ -5,6 +5,8 @@ One module per job: ``files`` (the page and its static files), ``status`` (the s
 (the serial trace), ``logview`` (the log view), ``http`` (security and JSON plumbing) and
 ``context`` (what the routes share). The package talks to the rest of the server only through
 :mod:`alpaca_zwo.facade`.
+
+May import ``alpaca_zwo.facade`` and itself, nothing else of the package (a test checks).
 """
 
 from __future__ import annotations

@@ -25,13 +25,13 @@ from alpaca.exceptions import (
 from alpaca.telescope import PierSide
 from alpaca.telescope import Telescope as AlpycaTelescope
 
-from alpaca_zwo.actions import ACTIONS
-from alpaca_zwo.config import EmulatorSettings
-from alpaca_zwo.config_file import load_settings
+from alpaca_zwo.config.file import load_settings
+from alpaca_zwo.config.settings import EmulatorSettings
+from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.store import SettingsStore
-from alpaca_zwo.wire_values import MeridianSettings, MountMode
+from alpaca_zwo.telescope.actions import ACTIONS
+from alpaca_zwo.zwo.wire_values import MeridianSettings, MountMode
 from tests.conftest import ServerFactory, make_settings
 from tests.support.wait import wait_until
 

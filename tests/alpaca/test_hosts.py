@@ -11,7 +11,7 @@ import pytest
 from alpaca_zwo._exceptions import ConfigError
 from alpaca_zwo.alpaca.advertise import MdnsAdvertiser
 from alpaca_zwo.alpaca.hosts import CACHE_SIZE, HostGuard, HostPolicy, host_of_header, host_of_origin, machine_hostname
-from alpaca_zwo.config import ServerSettings, settings_from_dict
+from alpaca_zwo.config.settings import ServerSettings, settings_from_dict
 
 HOSTNAME = "AstroPi"
 

@@ -32,9 +32,9 @@ from typing import Any
 
 import requests
 
-from alpaca_zwo.config import SiteSettings, StellariumSettings
+from alpaca_zwo.config.settings import SiteSettings, StellariumSettings
+from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.store import SettingsStore
 from tests.bridges.stellarium_rig import Alpaca, reference_to_apparent, reference_to_j2000, separation_arcsec
 from tests.conftest import make_settings
 

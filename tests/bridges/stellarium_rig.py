@@ -16,9 +16,9 @@ from pathlib import Path
 import erfa
 import requests
 
-from alpaca_zwo.config import SiteSettings, StellariumSettings
+from alpaca_zwo.config.settings import SiteSettings, StellariumSettings
+from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.store import SettingsStore
 from tests.conftest import make_settings
 from tests.faults.harness import parse_alpaca_time, wait_until
 

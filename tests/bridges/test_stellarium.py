@@ -233,7 +233,7 @@ def test_conversions_match_erfa_by_another_route(seed: int) -> None:
 
 def test_config_section_is_checked_like_the_others() -> None:
     from alpaca_zwo._exceptions import ConfigError
-    from alpaca_zwo.config import Settings, settings_from_dict
+    from alpaca_zwo.config.settings import Settings, settings_from_dict
 
     assert Settings().stellarium.enabled is False and Settings().stellarium.port == 10001
     assert settings_from_dict({"stellarium": {"equinox": "jnow"}}).stellarium.equinox == "JNow"
@@ -277,7 +277,7 @@ def test_command_line_option_turns_it_on_for_the_run(tmp_path: Path) -> None:
             assert client.read_position(timeout=20.0).status == 0  # Stellarium alone connects the mount
         finally:
             client.close()
-        from alpaca_zwo.config_file import load_settings
+        from alpaca_zwo.config.file import load_settings
 
         saved = load_settings(config).stellarium
         assert saved.enabled is False, "the option is for this run only and must not be saved"
@@ -317,9 +317,9 @@ def test_unreachable_mount_is_reported_and_stellarium_stays(tmp_path: Path) -> N
     import dataclasses
     import socket
 
-    from alpaca_zwo.config import DeviceSettings, StellariumSettings
+    from alpaca_zwo.config.settings import DeviceSettings, StellariumSettings
+    from alpaca_zwo.config.store import SettingsStore
     from alpaca_zwo.server import AlpacaZwoServer
-    from alpaca_zwo.store import SettingsStore
     from tests.conftest import make_settings
 
     with socket.socket() as s:  # a port with nothing listening: the mount is "switched off"

@@ -21,10 +21,11 @@ from datetime import datetime, timezone
 import pytest
 from alpaca.telescope import Telescope as AlpacaTelescope
 
-from alpaca_zwo import protocol, sky, wire_values
-from alpaca_zwo.config import EmulatorSettings, LimitSettings, ZwoPortSettings
-from alpaca_zwo.protocol import ReplyKind, reply_complete
+from alpaca_zwo import sky
+from alpaca_zwo.config.settings import EmulatorSettings, LimitSettings, ZwoPortSettings
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.zwo import protocol, wire_values
+from alpaca_zwo.zwo.protocol import ReplyKind, reply_complete
 from tests.conftest import ServerFactory, make_settings
 
 SPEED = 10.0  # emulated seconds per real second: GOTOs end quickly
@@ -459,7 +460,7 @@ def test_off_by_default_and_the_command_line_turns_it_on(server_factory: ServerF
 
 def test_allow_dangerous_accepts_only_guarded_codes() -> None:
     from alpaca_zwo._exceptions import ConfigError
-    from alpaca_zwo.config import settings_from_dict
+    from alpaca_zwo.config.settings import settings_from_dict
 
     settings = settings_from_dict({"zwo_port": {"allow_dangerous": ["AA", "all"]}})
     assert settings.zwo_port.allow_dangerous == ("AA", "all")

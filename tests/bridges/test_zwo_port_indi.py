@@ -21,7 +21,7 @@ import pytest
 from alpaca.telescope import Telescope as AlpacaTelescope
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import EmulatorSettings, LimitSettings, SiteSettings, ZwoPortSettings
+from alpaca_zwo.config.settings import EmulatorSettings, LimitSettings, SiteSettings, ZwoPortSettings
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until

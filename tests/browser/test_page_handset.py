@@ -19,7 +19,7 @@ from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.remote.webelement import WebElement
 from selenium.webdriver.support.ui import WebDriverWait
 
-from alpaca_zwo.config import EmulatorSettings, SiteSettings
+from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.web import objects
 from tests.conftest import ServerFactory, make_settings

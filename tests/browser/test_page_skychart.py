@@ -22,7 +22,7 @@ from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.support.ui import WebDriverWait
 from skyfield.api import Star, wgs84
 
-from alpaca_zwo.config import EmulatorSettings, SiteSettings
+from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
 from alpaca_zwo.web import objects
 from alpaca_zwo.web.skyview import catalogue
 from tests.conftest import ServerFactory, make_settings

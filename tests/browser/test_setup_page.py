@@ -16,8 +16,8 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.support.ui import WebDriverWait
 
-from alpaca_zwo.config import StellariumSettings
-from alpaca_zwo.config_file import load_settings
+from alpaca_zwo.config.file import load_settings
+from alpaca_zwo.config.settings import StellariumSettings
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conftest import make_settings
 from tests.support import AlpacaClient

@@ -52,7 +52,7 @@ from collections.abc import Iterator
 import pytest
 from alpaca import telescope as alpaca_telescope
 
-from alpaca_zwo.config import EmulatorSettings, ServerSettings
+from alpaca_zwo.config.settings import EmulatorSettings, ServerSettings
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conformance.ascom import AlpacaTelescope, AlpycaTelescope, EmulatedClock
 from tests.conformance.conformu_base import Timing

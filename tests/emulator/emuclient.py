@@ -13,8 +13,9 @@ import time
 from collections.abc import Callable
 from datetime import datetime, timedelta, timezone
 
-from alpaca_zwo import protocol, sky
+from alpaca_zwo import sky
 from alpaca_zwo.emulator import ManualClock, MountModel
+from alpaca_zwo.zwo import protocol
 
 #: True UTC at the start of every test: a March afternoon in UTC, evening in China.
 START_UTC = datetime(2025, 3, 20, 14, 0, 0, tzinfo=timezone.utc)

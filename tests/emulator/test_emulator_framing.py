@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from emuclient import MountClient
 
-from alpaca_zwo.request_framer import RequestFramer
+from alpaca_zwo.zwo.request_framer import RequestFramer
 
 
 @pytest.mark.parametrize(

@@ -10,7 +10,7 @@ import pytest
 from emuclient import MountClient
 
 from alpaca_zwo.emulator import FirmwareVariant, MountModel
-from alpaca_zwo.wire_values import MeridianSettings
+from alpaca_zwo.zwo.wire_values import MeridianSettings
 
 OLD = ["0.9.9", "1.1.2", "1.2.3"]
 NEW = ["1.2.4", "1.9.2"]

@@ -9,10 +9,10 @@ from __future__ import annotations
 import pytest
 from emuclient import MountClient, flags, slew, target_at, wait_slew
 
-from alpaca_zwo import wire_values
 from alpaca_zwo.emulator import PRESETS, FirmwareVariant, ManualClock, MountModel, preset
-from alpaca_zwo.firmware import has_feature
 from alpaca_zwo.sky import SIDEREAL_DEG_S
+from alpaca_zwo.zwo import wire_values
+from alpaca_zwo.zwo.firmware import has_feature
 
 
 @pytest.mark.parametrize("firmware", [FirmwareVariant(home_flag="always_at_home")])

@@ -12,10 +12,10 @@ import pytest
 
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.emulator.faults import Faults
-from alpaca_zwo.link import Link
-from alpaca_zwo.mount import Mount
+from alpaca_zwo.mount.operations import Mount
 from alpaca_zwo.server import AlpacaZwoServer, Overrides
-from alpaca_zwo.telescope import Telescope
+from alpaca_zwo.telescope.device import Telescope
+from alpaca_zwo.zwo.link import Link
 from tests.conftest import ServerFactory, make_settings
 from tests.faults.harness import MountRecorder, TraceAudit
 from tests.support import AlpacaClient, CallLog, wait_until

@@ -24,9 +24,9 @@ from typing import Any
 
 import pytest
 
-from alpaca_zwo import protocol
 from alpaca_zwo._exceptions import MountReplyError, ProtocolError
-from alpaca_zwo.link import TraceEntry
+from alpaca_zwo.zwo import protocol
+from alpaca_zwo.zwo.link import TraceEntry
 from tests.support import AlpacaClient, Call, wait_until
 from tests.support.alpaca import HANG_CUTOFF_S
 

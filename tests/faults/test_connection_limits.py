@@ -27,8 +27,8 @@ from pathlib import Path
 import pytest
 
 from alpaca_zwo.alpaca.http import MAX_CONNECTIONS_PER_ADDRESS, REQUEST_TIMEOUT_S, HttpServer
-from alpaca_zwo.config import ServerSettings
-from alpaca_zwo.config_file import ConfigError, load_settings
+from alpaca_zwo.config.file import ConfigError, load_settings
+from alpaca_zwo.config.settings import ServerSettings
 from alpaca_zwo.service import systemd_unit
 from tests.conftest import ServerFactory, make_settings
 from tests.faults.harness import Verdict, report

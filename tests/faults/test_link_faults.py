@@ -16,9 +16,10 @@ from datetime import datetime, timedelta
 
 import pytest
 
-from alpaca_zwo import protocol, sky
-from alpaca_zwo.config import EmulatorSettings
+from alpaca_zwo import sky
+from alpaca_zwo.config.settings import EmulatorSettings
 from alpaca_zwo.sky import SIDEREAL_DEG_S
+from alpaca_zwo.zwo import protocol
 from tests.faults.conftest import MAIN_ID, Rig, RigFactory
 from tests.faults.harness import (
     RECONNECT_LIMIT_S,

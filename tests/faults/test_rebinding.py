@@ -15,7 +15,7 @@ import json
 import socket
 from pathlib import Path
 
-from alpaca_zwo.config import ServerSettings
+from alpaca_zwo.config.settings import ServerSettings
 from alpaca_zwo.web import CSRF_HEADER
 from tests.faults.conftest import Rig, RigFactory
 from tests.support import AlpacaClient, wait_until

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import LimitSettings, SafetySettings
-from alpaca_zwo.config_file import load_settings
+from alpaca_zwo.config.file import load_settings
+from alpaca_zwo.config.settings import LimitSettings, SafetySettings
 from tests.faults.conftest import RigFactory
 from tests.faults.harness import RECONNECT_LIMIT_S, Verdict, report
 from tests.support import AlpacaClient, wait_until

@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 import requests
 
-from alpaca_zwo.config import ServerSettings
+from alpaca_zwo.config.settings import ServerSettings
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.web import CSRF_HEADER
 from tests.conftest import ServerFactory, make_settings

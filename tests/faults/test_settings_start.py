@@ -25,7 +25,7 @@ from pathlib import Path
 import pytest
 import requests
 
-from alpaca_zwo.config_file import STALE_TEMP_AGE_S, load_settings, remove_stale_temp_files
+from alpaca_zwo.config.file import STALE_TEMP_AGE_S, load_settings, remove_stale_temp_files
 from alpaca_zwo.web import CSRF_HEADER
 from tests.conftest import ServerFactory
 from tests.support.emulator import ENV, OutputLines

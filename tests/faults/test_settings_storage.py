@@ -24,7 +24,7 @@ import pytest
 import requests
 
 from alpaca_zwo._exceptions import ERR_SETTINGS_NOT_SAVED
-from alpaca_zwo.config import ZwoPortSettings
+from alpaca_zwo.config.settings import ZwoPortSettings
 from alpaca_zwo.web import CSRF_HEADER
 from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient
@@ -199,7 +199,7 @@ def test_the_log_keeps_the_path(server_factory: ServerFactory, tmp_path: Path,
     (tmp_path / "cfg").write_text("not a folder\n")
     server = server_factory(config_name="cfg/config.toml")
     rig = Rig(server.port)
-    with caplog.at_level("ERROR", logger="alpaca_zwo.store"):
+    with caplog.at_level("ERROR", logger="alpaca_zwo.config.store"):
         body = rig.put("siteelevation", SiteElevation="10").json()
     assert body["ErrorNumber"] == ERR_SETTINGS_NOT_SAVED and str(tmp_path) not in body["ErrorMessage"]
     assert any(str(tmp_path / "cfg" / "config.toml") in r.getMessage() for r in caplog.records)

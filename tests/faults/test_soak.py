@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable, Iterator
 
 from alpaca_zwo import sky
-from alpaca_zwo.config import EmulatorSettings
+from alpaca_zwo.config.settings import EmulatorSettings
 from tests.faults.conftest import Rig, RigFactory
 from tests.faults.harness import TraceAudit, Verdict, parse_alpaca_time, report, rss_bytes
 from tests.support import AlpacaClient, CallLog, wait_until

@@ -17,7 +17,7 @@ from collections.abc import Iterator
 import pytest
 
 from alpaca_zwo.clients import ClientKey, ClientRegistry
-from alpaca_zwo.config import SafetySettings
+from alpaca_zwo.config.settings import SafetySettings
 from tests.faults.conftest import Rig, RigFactory
 from tests.faults.harness import Verdict, report
 from tests.support import wait_until

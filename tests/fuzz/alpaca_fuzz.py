@@ -37,9 +37,9 @@ from schemathesis.specs.openapi.checks import (
 )
 
 from alpaca_zwo.alpaca.members import DEVICE_MEMBERS, routes
-from alpaca_zwo.config import EmulatorSettings, Settings
+from alpaca_zwo.config.settings import EmulatorSettings, Settings
+from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.store import SettingsStore
 from tests.conftest import make_settings
 from tests.fuzz.spec_fixes import UINT32_MAX
 from tests.support import AlpacaClient, wait_until

@@ -40,7 +40,7 @@ from schemathesis.specs.openapi.checks import (
     status_code_conformance,
 )
 
-from alpaca_zwo.actions import ACTIONS
+from alpaca_zwo.telescope.actions import ACTIONS
 from alpaca_zwo.web import CSRF_HEADER
 from tests.fuzz.alpaca_fuzz import LiveServer, start_live_server
 

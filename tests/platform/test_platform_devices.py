@@ -223,7 +223,7 @@ def test_usb_ids_pick_the_mount_and_other_devices_are_never_opened(ports: dict, 
     here the silent pty): the mount is chosen and confirmed by asking it, the other is not touched."""
     from serial.tools import list_ports
 
-    from alpaca_zwo import devices
+    from alpaca_zwo.zwo import devices
 
     silent = ports["silent"]
     listed = [_port_info(ports["mount"], 0x03C3, 0x4001, "ZWO AM5"),

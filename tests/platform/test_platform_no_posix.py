@@ -88,7 +88,7 @@ def test_every_module_imports_without_posix_modules(blocked_env: dict[str, str])
     assert report["probe"]["blocker"] == "blocks"
     assert "POSIX" in (report["probe"]["pty_support_error"] or "")  # the pty knows it cannot work here
     modules = report["modules"]
-    assert len(modules) > 20 and "alpaca_zwo.emulator.server" in modules and "alpaca_zwo.devices" in modules
+    assert len(modules) > 20 and "alpaca_zwo.emulator.server" in modules and "alpaca_zwo.zwo.devices" in modules
     failed = {name: why for name, why in modules.items() if why != "ok" and name not in POSIX_ONLY_MODULES}
     assert failed == {}
 

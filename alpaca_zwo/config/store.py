@@ -12,9 +12,9 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
-from ._exceptions import ConfigWriteError, SettingsNotSaved
-from .config import Settings, validate_settings
-from .config_file import save_settings
+from .._exceptions import ConfigWriteError, SettingsNotSaved
+from .file import save_settings
+from .settings import Settings, validate_settings
 
 log = logging.getLogger(__name__)
 

@@ -26,7 +26,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ._exceptions import (
+from .._exceptions import (
     ActionNotImplemented,
     ConfigError,
     InvalidOperation,
@@ -35,12 +35,12 @@ from ._exceptions import (
     NotConnected,
     mount_errors,
 )
-from .config import Settings, settings_from_dict, settings_to_dict
-from .wire_values import MeridianSettings, MountMode, MountStatus, parse_status
+from ..config.settings import Settings, settings_from_dict, settings_to_dict
+from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, parse_status
 
 if TYPE_CHECKING:
-    from .mount_state import MountSettings
-    from .telescope import Telescope
+    from ..mount.state import MountSettings
+    from .device import Telescope
 
 log = logging.getLogger(__name__)
 

@@ -22,7 +22,7 @@ import threading
 import time
 from dataclasses import fields
 
-from .mount_state import MountSettings
+from .state import MountSettings
 
 #: Seconds between periodic re-reads: how late a change made by another program (WiFi) may show.
 DEFAULT_REFRESH_S = 60.0

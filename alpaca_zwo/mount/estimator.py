@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from . import wire_values
+from ..zwo import wire_values
 
 
 def wire_position(ra: float, dec: float) -> tuple[float, float]:

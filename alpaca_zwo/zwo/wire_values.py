@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from datetime import date, time
 from enum import Enum
 
-from ._exceptions import ProtocolError
+from .._exceptions import ProtocolError
 
 # --------------------------------------------------------------------------------------------
 # Sexagesimal formats

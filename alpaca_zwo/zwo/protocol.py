@@ -22,7 +22,7 @@ from datetime import date, time
 from enum import Enum
 from typing import Any
 
-from ._exceptions import MountReplyError, ProtocolError
+from .._exceptions import MountReplyError, ProtocolError
 from .wire_values import (
     DEGREE_MARKS,
     Direction,

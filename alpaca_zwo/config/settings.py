@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from alpaca_zwo._exceptions import ConfigError
-from alpaca_zwo.firmware import DEFAULT_PRESET, MODELS, PRESETS
+from alpaca_zwo.zwo.firmware import DEFAULT_PRESET, MODELS, PRESETS
 
 __all__ = [
     "ZWO_PORT_DANGEROUS",

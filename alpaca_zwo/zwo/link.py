@@ -45,8 +45,8 @@ from typing import Any
 
 import serial
 
+from .._exceptions import AmbiguousReply, LinkError, LinkTimeout, MotionCancelled, ProtocolError
 from . import protocol
-from ._exceptions import AmbiguousReply, LinkError, LinkTimeout, MotionCancelled, ProtocolError
 
 log = logging.getLogger(__name__)
 

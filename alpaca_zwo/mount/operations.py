@@ -1,7 +1,7 @@
 """Typed mount operations and the state snapshot kept fresh by one poller.
 
 Reads never touch the port: the server answers every property from :attr:`Mount.state`, an
-immutable :class:`~alpaca_zwo.mount_state.MountState` that one poller thread replaces atomically. The poller spends the
+immutable :class:`~alpaca_zwo.mount.state.MountState` that one poller thread replaces atomically. The poller spends the
 fewest bytes it can (``:GMEQ#`` for both coordinates, ``:GU#``, ``:GAT#``, ``:Gm#``), polls fast
 while anything moves and slowly at rest, so serial traffic is independent of how many HTTP
 clients are reading.
@@ -23,15 +23,15 @@ from dataclasses import replace
 from datetime import datetime, timedelta, timezone
 from typing import Any
 
-from . import protocol, wire_values
-from ._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
+from .._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
+from ..sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
+from ..zwo import protocol, wire_values
+from ..zwo.link import Link, Priority
+from ..zwo.protocol import TrackingState
+from ..zwo.wire_values import Direction, MeridianSettings, MountStatus, TrackRate
 from .estimator import PositionEstimator, SyncRemainder, wire_position
-from .link import Link, Priority
-from .mount_state import MountInfo, MountSettings, MountState
-from .protocol import TrackingState
 from .settings_cache import DEFAULT_REFRESH_S, SETTINGS_CHANGING, SettingsCache
-from .sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
-from .wire_values import Direction, MeridianSettings, MountStatus, TrackRate
+from .state import MountInfo, MountSettings, MountState
 
 log = logging.getLogger(__name__)
 
@@ -107,7 +107,7 @@ class Mount:
         #: land after it.
         self._epoch = 0
         self._publish_lock = threading.Lock()
-        #: The mount-stored settings as last read: what the setup page shows (settings_cache.py).
+        #: The mount-stored settings as last read: what the setup page shows (mount/settings_cache.py).
         self.settings_cache = SettingsCache(settings_refresh_s)
 
     # -- state -------------------------------------------------------------------------------
@@ -651,7 +651,7 @@ class Mount:
                 self._publish(poll_error=str(exc))
 
     def _refresh_settings(self) -> None:
-        """Re-read the stored settings when due (see settings_cache.py), only at rest and at poll priority:
+        """Re-read the stored settings when due (see mount/settings_cache.py), only at rest and at poll priority:
         every command (a pulse, a GOTO) goes ahead of each of the eight queries, and a stop overtakes
         any of them on the urgent lane, so a refresh never holds up motion by more than one short query."""
         if not self._busy() and self.settings_cache.due():

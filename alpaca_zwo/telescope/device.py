@@ -16,8 +16,8 @@ import threading
 from collections.abc import Callable
 from datetime import datetime, timedelta, timezone
 
-from . import __version__, sky
-from ._exceptions import (
+from .. import __version__, sky
+from .._exceptions import (
     ERR_LINK,
     ERR_MOUNT_PROTOCOL,
     ERR_MOUNT_REFUSED,
@@ -29,17 +29,17 @@ from ._exceptions import (
     ValueNotSet,
     mount_errors,
 )
-from .clients import ClientKey, ClientRegistry, current_client
-from .config import DeviceSettings, Settings, horizon_altitude_at
-from .motion import Motion, MotionKind, MotionSupervisor
-from .motion.flip import PierFlips, side_setting
-from .mount import Mount
-from .mount_state import MountState
-from .sky import PierSide
-from .store import SettingsStore
-from .telescope_caps import AXIS_MIN_DEG_S, CapabilitiesMixin
-from .telescope_connection import ConnectionMixin
-from .wire_values import Direction, MeridianSettings, TrackRate
+from ..clients import ClientKey, ClientRegistry, current_client
+from ..config.settings import DeviceSettings, Settings, horizon_altitude_at
+from ..config.store import SettingsStore
+from ..motion import Motion, MotionKind, MotionSupervisor
+from ..motion.flip import PierFlips, side_setting
+from ..mount.operations import Mount
+from ..mount.state import MountState
+from ..sky import PierSide
+from ..zwo.wire_values import Direction, MeridianSettings, TrackRate
+from .capabilities import AXIS_MIN_DEG_S, CapabilitiesMixin
+from .connection import ConnectionMixin
 
 log = logging.getLogger(__name__)
 

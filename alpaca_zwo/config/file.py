@@ -1,7 +1,7 @@
 """The settings file on disk: where it lives, reading it with line-exact errors, writing it atomically.
 
 ``config`` defines and validates the settings; this module only moves them between a TOML file
-and :class:`~alpaca_zwo.config.Settings`.
+and :class:`~alpaca_zwo.config.settings.Settings`.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import Any
 import platformdirs
 import tomli_w
 
-from ._exceptions import ConfigError, ConfigWriteError
-from .config import Settings, assign_unique_ids, settings_from_dict, settings_to_dict, validate_settings
+from .._exceptions import ConfigError, ConfigWriteError
+from .settings import Settings, assign_unique_ids, settings_from_dict, settings_to_dict, validate_settings
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -1,7 +1,7 @@
 """What the server knows about the mount: the immutable snapshot one poller swaps, and its parts.
 
 Value types only, so readers (telescope, motion, web, bridges) can hold and pass a snapshot without
-touching :class:`~alpaca_zwo.mount.Mount` or the serial line.
+touching :class:`~alpaca_zwo.mount.operations.Mount` or the serial line.
 """
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-from .firmware import has_feature
-from .link import LinkStatus
-from .protocol import TrackingState
-from .wire_values import MeridianSettings, MountMode, MountStatus, TrackRate
+from ..zwo.firmware import has_feature
+from ..zwo.link import LinkStatus
+from ..zwo.protocol import TrackingState
+from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, TrackRate
 
 
 @dataclass(frozen=True)

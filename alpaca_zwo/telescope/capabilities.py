@@ -8,19 +8,19 @@ import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
-from ._exceptions import (
+from .._exceptions import (
     InvalidOperation,
     InvalidValue,
     MemberNotImplemented,
     mount_errors,
 )
-from .config import Settings
-from .motion import MotionSupervisor
-from .motion.offsets import MAX_OFFSET_ARCSEC, ra_rate_to_arcsec
-from .mount import Mount
-from .sky import SIDEREAL_DEG_S
-from .store import SettingsStore
-from .wire_values import SLEW_SPEEDS, TrackRate
+from ..config.settings import Settings
+from ..config.store import SettingsStore
+from ..motion import MotionSupervisor
+from ..motion.offsets import MAX_OFFSET_ARCSEC, ra_rate_to_arcsec
+from ..mount.operations import Mount
+from ..sky import SIDEREAL_DEG_S
+from ..zwo.wire_values import SLEW_SPEEDS, TrackRate
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +28,7 @@ AXIS_MIN_DEG_S = SLEW_SPEEDS[0] * SIDEREAL_DEG_S  # 0.25x sidereal
 
 
 class CapabilitiesMixin:
-    """Can* flags, AxisRates, guide and offset rates and the site of :class:`~alpaca_zwo.telescope.Telescope`."""
+    """Can* flags, AxisRates, guide and offset rates and the site of :class:`~alpaca_zwo.telescope.device.Telescope`."""
 
     mount: Mount
     store: SettingsStore

@@ -8,7 +8,7 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from ._exceptions import (
+from .._exceptions import (
     ERR_LINK,
     AlpacaError,
     DriverError,
@@ -19,17 +19,17 @@ from ._exceptions import (
     ProtocolError,
     mount_errors,
 )
-from .clients import ClientKey, ClientRegistry, current_client
-from .config import Settings
-from .motion import MotionSupervisor
-from .mount import Mount
-from .wire_values import MeridianSettings, TrackRate
+from ..clients import ClientKey, ClientRegistry, current_client
+from ..config.settings import Settings
+from ..motion import MotionSupervisor
+from ..mount.operations import Mount
+from ..zwo.wire_values import MeridianSettings, TrackRate
 
 log = logging.getLogger(__name__)
 
 
 class ConnectionMixin:
-    """Connected / Connect / Disconnect / Connecting of :class:`~alpaca_zwo.telescope.Telescope`."""
+    """Connected / Connect / Disconnect / Connecting of :class:`~alpaca_zwo.telescope.device.Telescope`."""
 
     mount: Mount
     registry: ClientRegistry

@@ -21,7 +21,7 @@ import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from ._exceptions import AlpacaZwoError
+from .._exceptions import AlpacaZwoError
 
 __all__ = [
     "ZWO_PID",
