@@ -19,7 +19,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -51,10 +51,32 @@ from .zwo.link import LinkCounters, LinkStatus, TraceEntry
 from .zwo.wire_values import MeridianSettings
 
 if TYPE_CHECKING:
-    from .server import AlpacaZwoServer
+    from .alpaca.hosts import HostGuard
+    from .clients import ClientRegistry
+    from .config.store import SettingsStore
     from .telescope.device import Telescope
 
 log = logging.getLogger(__name__)
+
+
+class AlpacaZwoServer(Protocol):
+    """What the facade reads of the server (``server.AlpacaZwoServer`` is one). Declared here, so the
+    server builds its facade without the facade importing the server: the two import no circle."""
+
+    store: SettingsStore
+    registry: ClientRegistry
+    telescopes: list[Telescope]
+    host_guard: HostGuard
+    discovery: Any  # a DiscoveryResponder with a ``port``, or None when discovery is off
+
+    @property
+    def settings(self) -> Settings: ...
+
+    @property
+    def port(self) -> int: ...
+
+    @property
+    def emulators(self) -> Sequence[object | None]: ...
 
 
 class FacadeProvider(Protocol):

@@ -19,7 +19,7 @@ from ..zwo.wire_values import format_date, format_time, format_utc_offset
 
 if TYPE_CHECKING:
     from ..telescope.device import Telescope
-    from .zwo_replies import Session
+    from .zwo_session import Session
 
 __all__ = ["ClockAndSite"]
 

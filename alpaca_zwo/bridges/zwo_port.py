@@ -28,7 +28,8 @@ from .._exceptions import AlpacaError
 from ..clients import ClientKey, current_client
 from ..zwo.protocol import match_command
 from ..zwo.request_framer import RequestFramer
-from .zwo_replies import Refusal, Session, ZwoResponder
+from .zwo_replies import ZwoResponder
+from .zwo_session import Refusal, Session
 
 if TYPE_CHECKING:
     from ..telescope.device import Telescope

@@ -28,7 +28,6 @@ import dataclasses
 import logging
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from .. import sky
@@ -42,7 +41,6 @@ from .._exceptions import (
     Parked,
     ProtocolError,
 )
-from ..clients import ClientKey
 from ..config.settings import ZWO_PORT_DANGEROUS, horizon_altitude_at
 from ..mount.state import MountSettings
 from ..sky import SIDEREAL_DEG_S
@@ -65,12 +63,13 @@ from ..zwo.wire_values import (
     format_utc_offset,
 )
 from .zwo_clock_site import ClockAndSite
+from .zwo_session import Handler, Refusal, Session
 
 if TYPE_CHECKING:
     from ..mount.operations import Mount
     from ..telescope.device import Telescope
 
-__all__ = ["Refusal", "Session", "ZwoResponder"]
+__all__ = ["ZwoResponder"]
 
 log = logging.getLogger(__name__)
 
@@ -80,33 +79,6 @@ DRIVE_RATE = {"TQ": 0, "TL": 1, "TS": 2}
 GUIDE_DIRECTION = {"n": 0, "s": 1, "e": 2, "w": 3}  # Telescope.pulse_guide's Direction numbers
 #: :M?# -> (axis, sign): axis 0 is RA (+ east), axis 1 is Dec (+ north), as Telescope.move_axis takes them.
 MOVES = {"e": (0, 1.0), "w": (0, -1.0), "n": (1, 1.0), "s": (1, -1.0)}
-
-
-class Refusal(Exception):
-    """A command the bridge refuses: ``reply`` is what the mount sends for such a refusal."""
-
-    def __init__(self, reply: str | None, reason: str) -> None:
-        super().__init__(reason)
-        self.reply = reply
-        self.reason = reason
-
-
-@dataclass
-class Session:
-    """One connected program's view of the mount: its own target and move speeds.
-
-    On the mount these are global, but programs sharing the port must not retarget each other's
-    GOTO between ``:Sr``/``:Sd`` and ``:MS#``, so each gets its own.
-    """
-
-    key: ClientKey
-    target: tuple[float, float] | None = None
-    speed: float = SLEW_SPEEDS[9]  # multiple of sidereal; the mount powers up at :R9#
-    axis_speed: list[float | None] = field(default_factory=lambda: [None, None])  # :Rvr/:Rvd
-    moved_axes: set[int] = field(default_factory=set)  # axes this program set moving
-
-
-Handler = Callable[[Session, str, bool], "str | None"]
 
 
 class ZwoResponder:

@@ -24,7 +24,7 @@ import math
 import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from .._exceptions import (
     ActionNotImplemented,
@@ -39,8 +39,26 @@ from ..config.settings import Settings, settings_from_dict, settings_to_dict
 from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, parse_status
 
 if TYPE_CHECKING:
+    from ..clients import ClientKey
+    from ..config.store import SettingsStore
+    from ..mount.operations import Mount
     from ..mount.state import MountSettings
-    from .device import Telescope
+
+
+class Telescope(Protocol):
+    """What an action uses of its device (``device.Telescope`` is one). Declared here so that this
+    module sits below the Telescope that dispatches to it, and the two import no circle."""
+
+    mount: Mount
+    store: SettingsStore
+
+    @property
+    def settings(self) -> Settings: ...
+
+    def set_meridian_settings(self, meridian: MeridianSettings) -> None: ...
+
+    def connected_clients(self) -> frozenset[ClientKey]: ...
+
 
 log = logging.getLogger(__name__)
 

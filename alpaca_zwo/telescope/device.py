@@ -38,6 +38,7 @@ from ..mount.operations import Mount
 from ..mount.state import MountState
 from ..sky import PierSide
 from ..zwo.wire_values import Direction, MeridianSettings, TrackRate
+from . import actions
 from .capabilities import AXIS_MIN_DEG_S, CapabilitiesMixin
 from .connection import ConnectionMixin
 
@@ -158,13 +159,9 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return __version__
 
     def supported_actions(self) -> list[str]:
-        from . import actions  # the ZWO actions live in their own module (issue 15)
-
         return actions.supported_actions()
 
     def action(self, action: str, parameters: str) -> str:
-        from . import actions
-
         return actions.run_action(self, action, parameters)
 
     def _raw(self, command: str) -> str:

@@ -14,14 +14,10 @@ import logging
 import threading
 from dataclasses import dataclass
 from datetime import datetime, timezone
-from typing import TYPE_CHECKING
 
 import falcon
 
 from .http import api_errors, query_float, send, text_download
-
-if TYPE_CHECKING:
-    from .context import WebContext
 
 #: How many log records the page can show and download.
 LOG_LINES = 2000
@@ -82,21 +78,21 @@ def log_buffer() -> LogBuffer:
 class LogResource:
     """``GET /setup/api/log[?after=SEQ]``: new log lines since the last call, for the live log view."""
 
-    def __init__(self, web: WebContext) -> None:
-        self.web = web
+    def __init__(self, logs: LogBuffer) -> None:
+        self.logs = logs
 
     def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
         with api_errors(resp):
             after = int(query_float(req, "after"))
-            entries = self.web.logs.entries(after)[-ENTRIES_PER_POLL:]
+            entries = self.logs.entries(after)[-ENTRIES_PER_POLL:]
             send(resp, {"entries": [dataclasses.asdict(e) for e in entries]})
 
 
 class LogText:
     """``GET /setup/api/log.txt``: the buffered log as a file, to attach to a bug report."""
 
-    def __init__(self, web: WebContext) -> None:
-        self.web = web
+    def __init__(self, logs: LogBuffer) -> None:
+        self.logs = logs
 
     def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
-        text_download(resp, self.web.logs.text(), "alpaca-zwo-log")
+        text_download(resp, self.logs.text(), "alpaca-zwo-log")
