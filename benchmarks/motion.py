@@ -1,7 +1,7 @@
 """Landing accuracy of Alt/Az and coordinate slews (issue 13): ``python -m benchmarks.motion``.
 
 The server runs in this process with its built-in emulator (paced at 9600 baud, at ``--speed``
-times real time), exactly as ``tests/test_motion.py`` measures it: the truth is the emulator's
+times real time), exactly as ``tests/motion/test_motion.py`` measures it: the truth is the emulator's
 own ``MountModel.horizontal()`` / ``.position()`` read the moment the server's ``Slewing`` (polled
 over HTTP every few milliseconds) turns false, i.e. when a client would start its exposure.
 

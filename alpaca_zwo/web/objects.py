@@ -6,7 +6,7 @@ pyongc ships it (deep-sky objects, Messier numbers, common names), and ``star_na
 module: the IAU WGSN's named stars (IAU-CSN: J2000 places, Vmag) with Hipparcos proper motions and
 Bayer/Flamsteed forms, keyed by HIP (``tools/make_star_names.py`` says where each column comes from).
 PyEphem and pyongc are imported on first use only: the Alpaca server starts and serves without them
-(tests/test_setup_goto.py checks ``sys.modules``).
+(tests/web/test_setup_goto.py checks ``sys.modules``).
 
 Apparent places are in the mount's frame, ``EquatorialSystem`` 1 (topocentric, equinox of date):
 PyEphem's ``ra``/``dec`` for an observer are apparent topocentric of date (precession, nutation,

@@ -5,7 +5,8 @@ from __future__ import annotations
 from datetime import datetime, timezone
 
 import pytest
-from conftest import SERVER_INFO, Alpaca
+
+from tests.alpaca.conftest import SERVER_INFO, Alpaca
 
 alpaca_telescope = pytest.importorskip("alpaca.telescope")
 alpaca_management = pytest.importorskip("alpaca.management")

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import pytest
-from conftest import CTID, OK_IDS, SERVER_INFO, Alpaca, StandInTelescope
 
 from alpaca_zwo.clients import ClientKey
+from tests.alpaca.conftest import CTID, OK_IDS, SERVER_INFO, Alpaca, StandInTelescope
 
 KEYS = {"Value", "ClientTransactionID", "ServerTransactionID", "ErrorNumber", "ErrorMessage"}
 

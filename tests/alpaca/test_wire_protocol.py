@@ -16,7 +16,6 @@ from urllib.parse import urlencode
 
 import pytest
 import requests
-from conftest import BAD_VALUE, CLIENT_ID, CTID, OK_IDS, Alpaca, StandInTelescope
 
 from alpaca_zwo._exceptions import (
     ActionNotImplemented,
@@ -32,6 +31,7 @@ from alpaca_zwo._exceptions import (
 from alpaca_zwo.alpaca import create_app
 from alpaca_zwo.alpaca.members import DEVICE_MEMBERS, Member, ValueType
 from alpaca_zwo.clients import ClientKey, ClientRegistry
+from tests.alpaca.conftest import BAD_VALUE, CLIENT_ID, CTID, OK_IDS, Alpaca, StandInTelescope
 
 MEMBERS = DEVICE_MEMBERS["telescope"]
 GET_PLAIN = [m for m in MEMBERS if m.verb == "GET" and not m.params]

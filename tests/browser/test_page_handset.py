@@ -3,7 +3,7 @@
 A person's actions by accessible names: type into "Find object", press Enter or tap a match, tap
 GoTo / Sync / Confirm / STOP. Judged by the emulator's truth (``model.snapshot()``) against places
 Skyfield computes with DE421, another library and ephemeris than the product's PyEphem. Each object is
-put about 1.5 h east of the meridian by choosing the site's longitude for now (tests/test_setup_goto.py),
+put about 1.5 h east of the meridian by choosing the site's longitude for now (tests/web/test_setup_goto.py),
 and the emulator runs on a 4x clock (landings are judged at the mount's own time). The phone runs in
 night mode. Screenshots of each view go to /tmp (docs/screenshots/ holds the ones looked at).
 """
@@ -24,9 +24,9 @@ from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.web import objects
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
-from tests.test_setup_api import Client
-from tests.test_setup_goto import LATITUDE, SPEED, _longitude_putting, _truth_place
-from tests.test_sky_objects import separation_arcsec, skyfield_place
+from tests.web.test_setup_api import Client
+from tests.web.test_setup_goto import LATITUDE, SPEED, _longitude_putting, _truth_place
+from tests.web.test_sky_objects import separation_arcsec, skyfield_place
 
 TIMEOUT = 15
 SLEW_TIMEOUT = 120

@@ -27,9 +27,9 @@ from alpaca_zwo.web import objects
 from alpaca_zwo.web.skyview import catalogue
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
-from tests.test_setup_api import Client
-from tests.test_setup_goto import LATITUDE, _longitude_putting
-from tests.test_sky_objects import EPH, SKYFIELD_BODIES, TS
+from tests.web.test_setup_api import Client
+from tests.web.test_setup_goto import LATITUDE, _longitude_putting
+from tests.web.test_sky_objects import EPH, SKYFIELD_BODIES, TS
 
 TIMEOUT = 20
 SIZES = {"phone": (390, 844), "desktop": (1280, 900)}

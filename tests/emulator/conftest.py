@@ -6,9 +6,9 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 
 import pytest
-from emuclient import START_UTC, MountClient, initialize
 
 from alpaca_zwo.emulator import EmulatorServer, FirmwareVariant, ManualClock, MountModel
+from tests.emulator.emuclient import START_UTC, MountClient, initialize
 
 
 @pytest.fixture

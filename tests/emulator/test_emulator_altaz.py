@@ -15,14 +15,14 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import pytest
-from emuclient import MountClient, flags, initialize, slew, target_at
-from test_emulator_faults import _connect_is_refused, _connection_is_dropped
 
 from alpaca_zwo import sky
 from alpaca_zwo.emulator import EmulatorServer, FirmwareVariant, ManualClock, MountModel, Responder
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.zwo import protocol
 from alpaca_zwo.zwo.wire_values import MountMode
+from tests.emulator.emuclient import MountClient, flags, initialize, slew, target_at
+from tests.emulator.test_emulator_faults import _connect_is_refused, _connection_is_dropped
 from tests.support import wait_until
 
 ARCSEC = 1.0 / 3600.0

@@ -9,8 +9,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from emuclient import MountClient
 
+from tests.emulator.emuclient import MountClient
 from tests.support import EmulatorProcess
 
 ROOT = Path(__file__).resolve().parents[2]

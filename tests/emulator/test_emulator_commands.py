@@ -10,11 +10,11 @@ import re
 from datetime import datetime, timezone
 
 import pytest
-from emuclient import MountClient
 
 from alpaca_zwo import sky
 from alpaca_zwo.emulator.model import FACTORY_LONGITUDE
 from alpaca_zwo.zwo import protocol, wire_values
+from tests.emulator.emuclient import MountClient
 
 HMS = r"\d{2}:\d{2}:\d{2}"
 _POWER_UP_LST = sky.local_sidereal_time(datetime(2000, 1, 1, tzinfo=timezone.utc), FACTORY_LONGITUDE)

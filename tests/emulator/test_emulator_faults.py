@@ -9,9 +9,9 @@ import time
 from collections.abc import Callable
 
 import pytest
-from emuclient import MountClient, flags, initialize
 
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
+from tests.emulator.emuclient import MountClient, flags, initialize
 from tests.support import wait_until
 
 

@@ -4,9 +4,9 @@ a letter, and the quirks real drivers produce (field notes §8) still get their 
 from __future__ import annotations
 
 import pytest
-from emuclient import MountClient
 
 from alpaca_zwo.zwo.request_framer import RequestFramer
+from tests.emulator.emuclient import MountClient
 
 
 @pytest.mark.parametrize(

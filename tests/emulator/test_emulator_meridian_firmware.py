@@ -7,10 +7,10 @@ and the stored setting is untouched. From 1.2.4 on both answer as documented (§
 from __future__ import annotations
 
 import pytest
-from emuclient import MountClient
 
 from alpaca_zwo.emulator import FirmwareVariant, MountModel
 from alpaca_zwo.zwo.wire_values import MeridianSettings
+from tests.emulator.emuclient import MountClient
 
 OLD = ["0.9.9", "1.1.2", "1.2.3"]
 NEW = ["1.2.4", "1.9.2"]

@@ -4,12 +4,12 @@ park, sync and heavy-duty mode. Emulated time moves only through the ManualClock
 from __future__ import annotations
 
 import pytest
-from emuclient import MountClient, flags, initialize, slew, target_at, wait_slew
 
 from alpaca_zwo import sky
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.zwo import protocol, wire_values
+from tests.emulator.emuclient import MountClient, flags, initialize, slew, target_at, wait_slew
 
 ARCSEC = 1.0 / 3600.0
 SIDEREAL_ARCSEC_S = SIDEREAL_DEG_S * 3600.0

@@ -5,12 +5,12 @@ from __future__ import annotations
 from datetime import datetime, timedelta, timezone
 
 import pytest
-from emuclient import MountClient, flags, initialize
 
 from alpaca_zwo import sky
 from alpaca_zwo.emulator import ManualClock, MountModel
 from alpaca_zwo.emulator.model import FACTORY_LATITUDE, FACTORY_LONGITUDE
 from alpaca_zwo.zwo import wire_values
+from tests.emulator.emuclient import MountClient, flags, initialize
 
 
 def test_power_up_state_matches_a_real_am5(mount: MountClient) -> None:

@@ -11,11 +11,11 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from emuclient import MountClient, flags, initialize, target_at
 
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
 from alpaca_zwo.emulator import server as server_module
 from alpaca_zwo.zwo import protocol
+from tests.emulator.emuclient import MountClient, flags, initialize, target_at
 from tests.support import wait_until
 
 

@@ -7,12 +7,12 @@ whose mount has that variant from power-up.
 from __future__ import annotations
 
 import pytest
-from emuclient import MountClient, flags, slew, target_at, wait_slew
 
 from alpaca_zwo.emulator import PRESETS, FirmwareVariant, ManualClock, MountModel, preset
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.zwo import wire_values
 from alpaca_zwo.zwo.firmware import has_feature
+from tests.emulator.emuclient import MountClient, flags, slew, target_at, wait_slew
 
 
 @pytest.mark.parametrize("firmware", [FirmwareVariant(home_flag="always_at_home")])

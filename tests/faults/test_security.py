@@ -1,7 +1,7 @@
 """Security switches, attacked over real HTTP: listening address, body limits, path traversal,
 cross-origin requests, raw mount commands and basic authentication.
 
-``tests/test_setup_api.py`` already walks the static directory with the common traversal spellings
+``tests/web/test_setup_api.py`` already walks the static directory with the common traversal spellings
 and checks the setup API's same-origin rules header by header; this file adds what an attacker
 would try next (other prefixes, overlong UTF-8, the Alpaca API itself, requests a hostile page
 can send without a CORS preflight) and checks the effect on the mount, not only the status code.

@@ -14,7 +14,7 @@ from skyfield.api import Star, wgs84
 
 from alpaca_zwo.web import objects
 from alpaca_zwo.web.skyview import BODIES, catalogue, sky_now
-from tests.test_sky_objects import EPH, SKYFIELD_BODIES, TS, separation_arcsec
+from tests.web.test_sky_objects import EPH, SKYFIELD_BODIES, TS, separation_arcsec
 
 SITE = (51.4769, -0.0005, 46.0)
 WHEN = datetime(2026, 11, 26, 1, 30, tzinfo=timezone.utc)

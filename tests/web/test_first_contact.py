@@ -27,7 +27,7 @@ from tests.conftest import ServerFactory
 from tests.netns import NetnsLan, NsProcess, lan_fixture
 from tests.support import wait_until
 
-ENV = {"PYTHONPATH": str(Path(__file__).resolve().parents[1]), "PATH": "/usr/bin:/bin"}
+ENV = {"PYTHONPATH": str(Path(__file__).resolve().parents[2]), "PATH": "/usr/bin:/bin"}
 TIMEOUT = 10
 lan = lan_fixture(2)
 

@@ -435,7 +435,7 @@ _EITHER_OK_OR_407 = {
     "TargetRightAscension",
 }
 _NOT_IMPLEMENTED_GETS = {"ApertureArea", "ApertureDiameter", "FocalLength"}
-_NOT_IMPLEMENTED_PUTS: set[str] = set()  # SideOfPier flips in equatorial mode (tests/test_meridian_flip.py)
+_NOT_IMPLEMENTED_PUTS: set[str] = set()  # SideOfPier flips in equatorial mode (tests/motion/test_meridian_flip.py)
 _COMMANDS = {"CommandBlind", "CommandBool", "CommandString"}
 
 

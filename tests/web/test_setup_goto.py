@@ -24,13 +24,13 @@ from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.web import objects
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
-from tests.test_setup_api import Client
-from tests.test_sky_objects import separation_arcsec, skyfield_place
+from tests.web.test_setup_api import Client
+from tests.web.test_sky_objects import separation_arcsec, skyfield_place
 
 LATITUDE = 51.4769
 #: Emulated seconds per real second: landings are judged at the mount's own time, not by timing.
 SPEED = 4.0
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
