@@ -1,12 +1,15 @@
-"""The Telescope's capabilities, the members a ZWO mount lacks, guide rates, rate offsets and site."""
+"""The Telescope's capabilities, the members a ZWO mount lacks, guide rates, rate offsets and site.
+
+No lock here: the rate offsets are plain floats written by one member and read back, and the
+settings store serialises its own saves.
+"""
 
 from __future__ import annotations
 
 import dataclasses
 import logging
 import math
-from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Mapping
 
 from .._exceptions import (
     InvalidOperation,
@@ -27,19 +30,25 @@ log = logging.getLogger(__name__)
 AXIS_MIN_DEG_S = SLEW_SPEEDS[0] * SIDEREAL_DEG_S  # 0.25x sidereal
 
 
-class CapabilitiesMixin:
-    """Can* flags, AxisRates, guide and offset rates and the site of :class:`~alpaca_zwo.telescope.device.Telescope`."""
+class Capabilities:
+    """Can* flags, AxisRates, guide and offset rates and the site of :class:`~alpaca_zwo.telescope.device.Telescope`.
 
-    mount: Mount
-    store: SettingsStore
-    motion: MotionSupervisor
-    _ra_rate: float
-    _dec_rate: float
+    ``require_connected`` is the owner's connection check (raises NotConnected), called where a
+    member needs the mount.
+    """
 
-    if TYPE_CHECKING:  # provided by Telescope
-        @property
-        def settings(self) -> Settings: ...
-        def _require_connected(self) -> None: ...
+    def __init__(self, *, mount: Mount, store: SettingsStore, motion: MotionSupervisor,
+                 require_connected: Callable[[], None]) -> None:
+        self.mount = mount
+        self.store = store
+        self.motion = motion  # pays the rate offsets
+        self._require_connected = require_connected
+        self._ra_rate = 0.0  # RightAscensionRate as written (RA seconds per sidereal second)
+        self._dec_rate = 0.0  # DeclinationRate as written (arcseconds per second)
+
+    @property
+    def settings(self) -> Settings:
+        return self.store.settings
 
     # -- capabilities ------------------------------------------------------------------------
 
@@ -107,9 +116,9 @@ class CapabilitiesMixin:
     def axis_rates(self, axis: int) -> list[tuple[float, float]]:
         if not self.can_move_axis(axis):
             return []
-        return [(AXIS_MIN_DEG_S, self._max_rate())]
+        return [(AXIS_MIN_DEG_S, self.max_rate())]
 
-    def _max_rate(self) -> float:
+    def max_rate(self) -> float:
         return SLEW_SPEEDS[-1] * SIDEREAL_DEG_S
 
     # -- properties the mount does not have ----------------------------------------------------
@@ -149,6 +158,12 @@ class CapabilitiesMixin:
         self._set_rate_offset(0, value, ra_rate_to_arcsec(value), "RightAscensionRate",
                               "seconds of RA per sidereal second")
         self._ra_rate = value
+
+    def zero_offsets(self) -> None:
+        """Off sidereal no rate offset exists (Platform 7): forget those written and stop paying them."""
+        self._ra_rate = self._dec_rate = 0.0
+        self.motion.set_rate_offset(0, 0.0)
+        self.motion.set_rate_offset(1, 0.0)
 
     def _sidereal(self) -> bool:
         return self.mount.state.tracking_rate is TrackRate.SIDEREAL

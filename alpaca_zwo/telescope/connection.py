@@ -1,12 +1,21 @@
 """The Telescope's connection: reference-counted across clients, the mount link opened by the first
-and lingering a while after the last, so a client that reconnects finds it open."""
+and lingering a while after the last, so a client that reconnects finds it open.
+
+Locks, both owned by :class:`Connection` (motion has its own, see ``motion/supervisor.py``):
+
+- ``_clients_lock`` guards the client set, the connecting flag and the linger timer; it is never
+  held across I/O, so a GET never waits on the serial line.
+- ``_link_lock`` (re-entrant) serialises opening and closing the mount link; it is held across I/O.
+
+Lock order: ``_link_lock`` → ``_clients_lock`` (the linger expiry holds both), never the reverse.
+"""
 
 from __future__ import annotations
 
 import logging
 import threading
 import time
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 from .._exceptions import (
     ERR_LINK,
@@ -15,11 +24,10 @@ from .._exceptions import (
     LinkError,
     MountReplyError,
     NotConnected,
-    Parked,
     ProtocolError,
     mount_errors,
 )
-from ..clients import ClientKey, ClientRegistry, current_client
+from ..clients import ClientKey
 from ..config.settings import Settings
 from ..motion import MotionSupervisor
 from ..mount.operations import Mount
@@ -28,32 +36,34 @@ from ..zwo.wire_values import MeridianSettings, TrackRate
 log = logging.getLogger(__name__)
 
 
-class ConnectionMixin:
-    """Connected / Connect / Disconnect / Connecting of :class:`~alpaca_zwo.telescope.device.Telescope`."""
+class Connection:
+    """Who holds the device connected, and the mount link's life: opened (with the configured mount
+    settings pushed) by the first client, closed ``linger_s`` after the last one let go.
 
-    mount: Mount
-    registry: ClientRegistry
-    motion: MotionSupervisor
-    linger_s: float
-    link_grace_s: float
-    _lock: threading.RLock
-    _clients_lock: threading.Lock
-    _clients: set[ClientKey]
-    _connecting: bool
-    _linger_timer: threading.Timer | None
-    _meridian: MeridianSettings
+    Clients are named by the caller (the Telescope reads them from the request context), so this
+    part knows nothing of HTTP or bridges.
+    """
 
-    if TYPE_CHECKING:  # provided by Telescope
-        @property
-        def settings(self) -> Settings: ...
+    def __init__(self, *, mount: Mount, motion: MotionSupervisor, settings: Callable[[], Settings],
+                 linger_s: float, link_grace_s: float) -> None:
+        self.mount = mount
+        self.motion = motion  # stopped when the last client lets go; a running motion keeps the link open
+        self._settings = settings
+        self.linger_s = linger_s  # the link stays open this long after the last client
+        self.link_grace_s = link_grace_s  # Connected stays true this long into a link outage
+        self._link_lock = threading.RLock()
+        self._clients_lock = threading.Lock()
+        self._clients: set[ClientKey] = set()
+        self._connecting = False
+        self._linger_timer: threading.Timer | None = None
+        #: The mount's meridian setting as last read or written: DestinationSideOfPier and pier flips
+        #: depend on it.
+        self.meridian = MeridianSettings()
 
-    # -- connection (reference-counted across clients) ---------------------------------------
+    # -- clients -----------------------------------------------------------------------------
 
-    def _caller(self) -> ClientKey:
-        return current_client.get() or ClientKey("internal", 0)
-
-    def connected(self) -> bool:
-        key = current_client.get()
+    def connected(self, key: ClientKey | None) -> bool:
+        """``key`` holds the device (``None``: anyone does) and the link is up or within its grace."""
         with self._clients_lock:
             has_client = bool(self._clients) if key is None else key in self._clients
         return has_client and self._device_up()
@@ -64,19 +74,16 @@ class ConnectionMixin:
         status = self.mount.link.status
         return status.connected or time.time() - status.since < self.link_grace_s
 
-    def set_connected(self, value: bool) -> None:
-        key = self._caller()
-        if value:
-            self._open_mount()
-            with self._clients_lock:
-                self._clients.add(key)
-                self._cancel_linger()
-            log.info("client %s connected (%d connected)", key, len(self._clients))
-        else:
-            self._release(key)
+    def attach(self, key: ClientKey) -> None:
+        """Connected=true: open the link if needed (raises if it cannot), then count ``key`` in."""
+        self._open_link()
+        with self._clients_lock:
+            self._clients.add(key)
+            self._cancel_linger()
+        log.info("client %s connected (%d connected)", key, len(self._clients))
 
-    def connect(self) -> None:
-        key = self._caller()
+    def connect_in_background(self, key: ClientKey) -> None:
+        """Connect(): attach ``key`` on a thread while Connecting reads true; a failure is only logged."""
         with self._clients_lock:
             if self._connecting:
                 return
@@ -84,7 +91,7 @@ class ConnectionMixin:
 
         def run() -> None:
             try:
-                self._open_mount()
+                self._open_link()
                 with self._clients_lock:
                     self._clients.add(key)
                     self._cancel_linger()
@@ -96,55 +103,16 @@ class ConnectionMixin:
 
         threading.Thread(target=run, name="telescope-connect", daemon=True).start()
 
-    def disconnect(self) -> None:
-        self._release(self._caller())
-
     def connecting(self) -> bool:
         return self._connecting
 
-    def _open_mount(self) -> None:
-        with self._lock:
-            if self.mount.running:
-                return
-            try:
-                self.mount.connect()
-            except (LinkError, ProtocolError, MountReplyError) as exc:
-                raise DriverError(f"cannot connect to the mount at {self.mount.link.url}: {exc}", ERR_LINK) from exc
-            self._load_mount_settings()
-
-    def connected_clients(self) -> frozenset[ClientKey]:
+    def clients(self) -> frozenset[ClientKey]:
         """Who holds the device connected (the setup page lists them)."""
         with self._clients_lock:
             return frozenset(self._clients)
 
-    def _configured_meridian(self) -> MeridianSettings:
-        limits = self.settings.limits
-        return MeridianSettings(False, limits.meridian_track_past, round(limits.meridian_limit_deg))
-
-    def set_meridian_settings(self, meridian: MeridianSettings) -> None:
-        """Write the mount's meridian behaviour and remember it: DestinationSideOfPier depends on it."""
-        with mount_errors("setting the meridian behaviour"):
-            self.mount.set_meridian(meridian)
-        self._meridian = meridian
-
-    def _load_mount_settings(self) -> None:
-        """The configuration is the single source of truth: a replaced or reset mount gets it back."""
-        settings = self.mount.read_settings()
-        wanted = self._configured_meridian()
-        if settings.meridian is not None:
-            self._meridian = settings.meridian
-            if settings.meridian != wanted:
-                try:
-                    self.set_meridian_settings(wanted)
-                    log.info("mount meridian setting %s replaced by the configured %s", settings.meridian, wanted)
-                except DriverError as exc:
-                    log.warning("could not apply the configured meridian setting: %s", exc.message)
-        try:
-            self.mount.set_tracking_rate(TrackRate.SIDEREAL)  # "start up with a known tracking rate"
-        except (LinkError, ProtocolError) as exc:
-            log.warning("could not select the sidereal rate: %s", exc)
-
-    def _release(self, key: ClientKey) -> None:
+    def release(self, key: ClientKey) -> None:
+        """``key`` lets go; after the last one, manual motion stops and the link lingers, then closes."""
         with self._clients_lock:
             self._clients.discard(key)
             remaining = len(self._clients)
@@ -159,26 +127,69 @@ class ConnectionMixin:
                     timer.start()
         log.info("client %s disconnected (%d still connected)", key, remaining)
 
-    def _cancel_linger(self) -> None:
-        if self._linger_timer is not None:
-            self._linger_timer.cancel()
-            self._linger_timer = None
-
-    def _linger_expired(self) -> None:
-        with self._lock:
-            with self._clients_lock:
-                if self._clients or self.motion.motion is not None:
-                    return
-            log.info("no client for %.0f s: closing the mount link", self.linger_s)
-            self.mount.disconnect()
-
-    def _require_connected(self) -> None:
+    def require_connected(self) -> None:
         """The device is connected while at least one client holds it (the link may linger longer)."""
         with self._clients_lock:
             held = bool(self._clients)
         if not held or not self.mount.running:
             raise NotConnected("the telescope is not connected: set Connected=true or call Connect first")
 
-    def _require_unparked(self, what: str) -> None:
-        if self.motion.parked:
-            raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
+    def close(self) -> None:
+        """Server shutdown: no linger timer may close the link behind the owner's back."""
+        with self._clients_lock:
+            self._cancel_linger()
+
+    # -- the link ----------------------------------------------------------------------------
+
+    def _open_link(self) -> None:
+        with self._link_lock:
+            if self.mount.running:
+                return
+            try:
+                self.mount.connect()
+            except (LinkError, ProtocolError, MountReplyError) as exc:
+                raise DriverError(f"cannot connect to the mount at {self.mount.link.url}: {exc}", ERR_LINK) from exc
+            self._load_mount_settings()
+
+    def _cancel_linger(self) -> None:
+        """Callers hold ``_clients_lock``."""
+        if self._linger_timer is not None:
+            self._linger_timer.cancel()
+            self._linger_timer = None
+
+    def _linger_expired(self) -> None:
+        with self._link_lock:
+            with self._clients_lock:
+                if self._clients or self.motion.motion is not None:
+                    return
+            log.info("no client for %.0f s: closing the mount link", self.linger_s)
+            self.mount.disconnect()
+
+    # -- mount settings a connect pushes -----------------------------------------------------
+
+    def _configured_meridian(self) -> MeridianSettings:
+        limits = self._settings().limits
+        return MeridianSettings(False, limits.meridian_track_past, round(limits.meridian_limit_deg))
+
+    def set_meridian_settings(self, meridian: MeridianSettings) -> None:
+        """Write the mount's meridian behaviour and remember it: DestinationSideOfPier depends on it."""
+        with mount_errors("setting the meridian behaviour"):
+            self.mount.set_meridian(meridian)
+        self.meridian = meridian
+
+    def _load_mount_settings(self) -> None:
+        """The configuration is the single source of truth: a replaced or reset mount gets it back."""
+        settings = self.mount.read_settings()
+        wanted = self._configured_meridian()
+        if settings.meridian is not None:
+            self.meridian = settings.meridian
+            if settings.meridian != wanted:
+                try:
+                    self.set_meridian_settings(wanted)
+                    log.info("mount meridian setting %s replaced by the configured %s", settings.meridian, wanted)
+                except DriverError as exc:
+                    log.warning("could not apply the configured meridian setting: %s", exc.message)
+        try:
+            self.mount.set_tracking_rate(TrackRate.SIDEREAL)  # "start up with a known tracking rate"
+        except (LinkError, ProtocolError) as exc:
+            log.warning("could not select the sidereal rate: %s", exc)

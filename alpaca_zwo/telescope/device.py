@@ -1,10 +1,17 @@
 """ASCOM ITelescopeV4 semantics on top of one mount and its motion supervisor.
 
-Validation and ranges, the Can* flags, target and site caches and the client reference count live
-here; bytes do not, and neither does motion: every slew, move, pulse, park and stop goes through
+Validation and ranges, targets, the clock offset, slews, syncs and park live here; the client
+reference count and the link live in :class:`~alpaca_zwo.telescope.connection.Connection`, the
+Can* flags, rates and site in :class:`~alpaca_zwo.telescope.capabilities.Capabilities`, the pure
+target checks in :mod:`~alpaca_zwo.telescope.pointing`. Bytes do not live here, and neither does
+motion: every slew, move, pulse, park and stop goes through
 :class:`~alpaca_zwo.motion.MotionSupervisor`, which decides Slewing / IsPulseGuiding / AtPark from
 what the mount does. Every failure is an :class:`~alpaca_zwo._exceptions.AlpacaError` subclass
 carrying the ASCOM code a client expects.
+
+Locks: Telescope creates none. Its parts own theirs (``Connection._clients_lock`` and
+``_link_lock``, ``PierFlips._lock``, the supervisor's); its own fields (target, settle time, clock
+offset) are single values written by one member and read by others.
 """
 
 from __future__ import annotations
@@ -12,8 +19,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import threading
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from datetime import datetime, timedelta, timezone
 
 from .. import __version__, sky
@@ -26,11 +32,12 @@ from .._exceptions import (
     InvalidOperation,
     InvalidValue,
     MemberNotImplemented,
+    Parked,
     ValueNotSet,
     mount_errors,
 )
 from ..clients import ClientKey, ClientRegistry, current_client
-from ..config.settings import DeviceSettings, Settings, horizon_altitude_at
+from ..config.settings import DeviceSettings, Settings
 from ..config.store import SettingsStore
 from ..motion import Motion, MotionKind, MotionSupervisor
 from ..motion.flip import PierFlips, side_setting
@@ -38,9 +45,9 @@ from ..mount.operations import Mount
 from ..mount.state import MountState
 from ..sky import PierSide
 from ..zwo.wire_values import Direction, MeridianSettings, TrackRate
-from . import actions
-from .capabilities import AXIS_MIN_DEG_S, CapabilitiesMixin
-from .connection import ConnectionMixin
+from . import actions, pointing
+from .capabilities import AXIS_MIN_DEG_S, Capabilities
+from .connection import Connection
 
 log = logging.getLogger(__name__)
 
@@ -56,13 +63,18 @@ RATE_CODES = {rate: code for code, rate in DRIVE_RATES.items()}
 GUIDE_DIRECTIONS = {0: Direction.NORTH, 1: Direction.SOUTH, 2: Direction.EAST, 3: Direction.WEST}
 
 
-
 def _utc(t: datetime) -> datetime:
     return t.astimezone(timezone.utc) if t.tzinfo else t.replace(tzinfo=timezone.utc)
 
 
-class Telescope(ConnectionMixin, CapabilitiesMixin):
-    """One Alpaca telescope device (the handlers named in ``alpaca/device.py``)."""
+class Telescope:
+    """One Alpaca telescope device (the handlers named in ``alpaca/device.py``).
+
+    Built from parts it owns: ``connection`` (clients and the mount link; both locks live there),
+    ``caps`` (Can*, rates, site), ``motion`` (the supervisor; its own locks) and ``flips`` (pier
+    flips; its own lock). The members a part implements are one-line delegations here, because the
+    Alpaca member table binds each handler on this object.
+    """
 
     interface_version_value = 4
 
@@ -82,26 +94,18 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         self.device_index = device_index
         self.registry = registry or ClientRegistry()
         self.clock = clock or mount.clock
-        self.linger_s = linger_s
-        self.link_grace_s = link_grace_s
-        # Two locks, so a GET never waits on the serial line: _clients_lock guards the client set
-        # and is never held across I/O; _lock serialises opening and closing the mount link.
-        # Motion has its own locks (motion.py).
-        self._lock = threading.RLock()
-        self._clients_lock = threading.Lock()
-        self._clients: set[ClientKey] = set()
-        self._connecting = False
-        self._linger_timer: threading.Timer | None = None
         self._target_ra: float | None = None
         self._target_dec: float | None = None
         self._settle_s = 0
-        self._ra_rate = 0.0  # RightAscensionRate as written (RA seconds per sidereal second)
-        self._dec_rate = 0.0  # DeclinationRate as written (arcseconds per second)
         self._utc_offset = timedelta(0)
-        self._meridian = MeridianSettings()
         self.motion = MotionSupervisor(mount, lambda: self.store.settings, self._lst, self.registry,
                                        name=f"motion-{device_index}")
-        self.flips = PierFlips(mount, self.motion, lambda: self._meridian)  # SideOfPier writes
+        self.connection = Connection(mount=mount, motion=self.motion, settings=lambda: self.store.settings,
+                                     linger_s=linger_s, link_grace_s=link_grace_s)
+        self.caps = Capabilities(mount=mount, store=store, motion=self.motion,
+                                 require_connected=self.connection.require_connected)
+        self.flips = PierFlips(mount=mount, motion=self.motion,  # SideOfPier writes
+                               configured=lambda: self.connection.meridian)
 
     # -- configuration -----------------------------------------------------------------------
 
@@ -134,7 +138,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
                 except AlpacaError as exc:
                     log.error("could not park on shutdown: %s", exc.message)
         self.motion.close()
-        self._cancel_linger()
+        self.connection.close()
         if self.mount.running:
             self.flips.restore_now()
             self.mount.disconnect()
@@ -170,7 +174,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
                 "raw mount commands are disabled (they bypass every safety check); "
                 "set server.allow_raw_commands = true to enable them"
             )
-        self._require_connected()
+        self.connection.require_connected()
         with mount_errors("raw command"):
             return self.mount.raw(command)
 
@@ -186,10 +190,74 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
     def command_string(self, command: str, raw: bool) -> str:
         return self._raw(command).rstrip("#")
 
+    # -- connection (reference-counted across clients: Connection) ------------------------------
+
+    def _caller(self) -> ClientKey:
+        return current_client.get() or ClientKey("internal", 0)
+
+    def set_connected(self, value: bool) -> None:
+        if value:
+            self.connection.attach(self._caller())
+        else:
+            self.connection.release(self._caller())
+
+    def connected(self) -> bool: return self.connection.connected(current_client.get())
+    def connect(self) -> None: self.connection.connect_in_background(self._caller())
+    def disconnect(self) -> None: self.connection.release(self._caller())
+    def connecting(self) -> bool: return self.connection.connecting()
+    def connected_clients(self) -> frozenset[ClientKey]: return self.connection.clients()
+    def set_meridian_settings(self, meridian: MeridianSettings) -> None: self.connection.set_meridian_settings(meridian)
+
+    def _require_unparked(self, what: str) -> None:
+        if self.motion.parked:
+            raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
+
+    # -- capabilities, rates and site (Capabilities) ---------------------------------------------
+
+    def can_find_home(self) -> bool: return self.caps.can_find_home()
+    def can_park(self) -> bool: return self.caps.can_park()
+    def can_unpark(self) -> bool: return self.caps.can_unpark()
+    def can_set_park(self) -> bool: return self.caps.can_set_park()
+    def can_pulse_guide(self) -> bool: return self.caps.can_pulse_guide()
+    def can_set_guide_rates(self) -> bool: return self.caps.can_set_guide_rates()
+    def can_set_tracking(self) -> bool: return self.caps.can_set_tracking()
+    def can_slew(self) -> bool: return self.caps.can_slew()
+    def can_slew_async(self) -> bool: return self.caps.can_slew_async()
+    def can_slew_alt_az(self) -> bool: return self.caps.can_slew_alt_az()
+    def can_slew_alt_az_async(self) -> bool: return self.caps.can_slew_alt_az_async()
+    def can_sync(self) -> bool: return self.caps.can_sync()
+    def can_sync_alt_az(self) -> bool: return self.caps.can_sync_alt_az()
+    def can_set_pier_side(self) -> bool: return self.caps.can_set_pier_side()
+    def flips_by_limit(self) -> bool: return self.caps.flips_by_limit()
+    def can_set_declination_rate(self) -> bool: return self.caps.can_set_declination_rate()
+    def can_set_right_ascension_rate(self) -> bool: return self.caps.can_set_right_ascension_rate()
+    def can_move_axis(self, axis: int) -> bool: return self.caps.can_move_axis(axis)
+    def axis_rates(self, axis: int) -> list[tuple[float, float]]: return self.caps.axis_rates(axis)
+    def aperture_area(self) -> float: return self.caps.aperture_area()
+    def aperture_diameter(self) -> float: return self.caps.aperture_diameter()
+    def focal_length(self) -> float: return self.caps.focal_length()
+    def does_refraction(self) -> bool: return self.caps.does_refraction()
+    def set_does_refraction(self, value: bool) -> None: self.caps.set_does_refraction(value)
+    def declination_rate(self) -> float: return self.caps.declination_rate()
+    def set_declination_rate(self, value: float) -> None: self.caps.set_declination_rate(value)
+    def right_ascension_rate(self) -> float: return self.caps.right_ascension_rate()
+    def set_right_ascension_rate(self, value: float) -> None: self.caps.set_right_ascension_rate(value)
+    def guide_rate_right_ascension(self) -> float: return self.caps.guide_rate_right_ascension()
+    def guide_rate_declination(self) -> float: return self.caps.guide_rate_declination()
+    def set_guide_rate_right_ascension(self, value: float) -> None: self.caps.set_guide_rate_right_ascension(value)
+    def set_guide_rate_declination(self, value: float) -> None: self.caps.set_guide_rate_declination(value)
+    def site_latitude(self) -> float: return self.caps.site_latitude()
+    def site_longitude(self) -> float: return self.caps.site_longitude()
+    def site_elevation(self) -> float: return self.caps.site_elevation()
+    def set_site_latitude(self, value: float) -> None: self.caps.set_site_latitude(value)
+    def set_site_longitude(self, value: float) -> None: self.caps.set_site_longitude(value)
+    def set_site_elevation(self, value: float) -> None: self.caps.set_site_elevation(value)
+    def set_site(self, values: Mapping[str, float]) -> None: self.caps.set_site(values)
+
     # -- state -------------------------------------------------------------------------------
 
     def _state(self) -> MountState:
-        self._require_connected()
+        self.connection.require_connected()
         state = self.mount.state
         if state.ra is None or state.dec is None:
             raise DriverError("the mount has not reported its position yet", ERR_LINK)
@@ -226,15 +294,15 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return self._altaz(self._position())[1]
 
     def sidereal_time(self) -> float:
-        self._require_connected()
+        self.connection.require_connected()
         return self._lst()
 
     def utc_date(self) -> datetime:
-        self._require_connected()
+        self.connection.require_connected()
         return self.utc_now()
 
     def set_utc_date(self, value: datetime) -> None:
-        self._require_connected()
+        self.connection.require_connected()
         value = _utc(value)
         if not MOUNT_EPOCH_FIRST <= value <= MOUNT_EPOCH_LAST:
             raise InvalidValue(
@@ -250,7 +318,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return bool(state.tracking and state.tracking.on)
 
     def set_tracking(self, value: bool) -> None:
-        self._require_connected()
+        self.connection.require_connected()
         if value:
             self._require_unparked("Tracking=true")
         try:
@@ -268,22 +336,20 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return sorted(DRIVE_RATES)
 
     def tracking_rate(self) -> int:
-        self._require_connected()
+        self.connection.require_connected()
         return RATE_CODES[self.mount.state.tracking_rate]
 
     def set_tracking_rate(self, value: int) -> None:
         if value not in DRIVE_RATES:
             raise InvalidValue(f"TrackingRate {value} is not supported; use 0 (sidereal), 1 (lunar) or 2 (solar)")
-        self._require_connected()
+        self.connection.require_connected()
         with mount_errors("setting the tracking rate"):
             self.mount.set_tracking_rate(DRIVE_RATES[value])
         if DRIVE_RATES[value] is not TrackRate.SIDEREAL:  # offsets exist only on sidereal (Platform 7)
-            self._ra_rate = self._dec_rate = 0.0
-            self.motion.set_rate_offset(0, 0.0)
-            self.motion.set_rate_offset(1, 0.0)
+            self.caps.zero_offsets()
 
     def at_park(self) -> bool:
-        self._require_connected()
+        self.connection.require_connected()
         return self.motion.parked
 
     def at_home(self) -> bool:
@@ -293,11 +359,11 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return state.pier == "N" or bool(state.status and state.status.at_home)
 
     def slewing(self) -> bool:
-        self._require_connected()
+        self.connection.require_connected()
         return self.motion.slewing()
 
     def is_pulse_guiding(self) -> bool:
-        self._require_connected()
+        self.connection.require_connected()
         return self.motion.pulse_guiding()
 
     def _altaz_mode(self) -> bool:
@@ -322,12 +388,12 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         any slew: Slewing until at rest, AbortSlew stops it. Writing the current side does nothing.
         In alt-az mode (CanSetPierSide false) every write is NotImplemented, whatever its value: ConformU
         writes back the -1 it read there and counts an InvalidValue as a finding."""
-        if not self.flips_by_limit():
+        if not self.caps.flips_by_limit():
             raise MemberNotImplemented("an alt-az mount has no pier side to set" if self._altaz_mode() else
                                        "flipping needs the mount's meridian settings (firmware 1.2.4 or later)")
         if value not in (PierSide.EAST, PierSide.WEST):
             raise InvalidValue(f"SideOfPier {value} is not 0 (pierEast) or 1 (pierWest)")
-        self._require_connected()
+        self.connection.require_connected()
         self._require_unparked("SideOfPier")
         if self.side_of_pier() == value:
             return
@@ -336,7 +402,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         if limit is None:
             raise InvalidOperation(f"the mount cannot point at hour angle {sky.hour_angle(self._lst(), ra):+.2f} h "
                                    f"from {PierSide(value).name.lower()} of the pier (15° past the meridian at most)")
-        self._check_above_limits(ra, dec)
+        pointing.check_above_limits(self.settings, self._lst(), ra, dec)
         self.flips.goto(ra, dec, side_setting(limit))
 
     def _pier(self) -> PierSide:
@@ -344,16 +410,16 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return PierSide.EAST if pier == "E" else PierSide.WEST if pier == "W" else PierSide.UNKNOWN
 
     def destination_side_of_pier(self, right_ascension: float, declination: float) -> int:
-        self._check_equatorial(right_ascension, declination)
-        self._require_connected()
+        pointing.check_equatorial(right_ascension, declination)
+        self.connection.require_connected()
         if self._altaz_mode():
             return int(PierSide.UNKNOWN)  # no pier side to predict in alt-az mode
         ha = sky.hour_angle(self._lst(), right_ascension)
-        side_rule = sky.kept_goto_side if self.flips_by_limit() else sky.goto_pier_side
+        side_rule = sky.kept_goto_side if self.caps.flips_by_limit() else sky.goto_pier_side
         return int(side_rule(ha, self._pier(), self._flip_limit_deg()))
 
     def _flip_limit_deg(self) -> float:
-        meridian = self._meridian
+        meridian = self.connection.meridian
         limit = float(meridian.limit_degrees)
         # A negative limit stops tracking before the meridian whatever the "track past" flag says.
         return limit if limit < 0.0 or meridian.track_after else 0.0
@@ -423,31 +489,6 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
 
     # -- slews ---------------------------------------------------------------------------------
 
-    @staticmethod
-    def _check_equatorial(ra: float, dec: float) -> None:
-        if not (math.isfinite(ra) and 0.0 <= ra < 24.0):
-            raise InvalidValue(f"RightAscension {ra} is outside 0..24 hours")
-        if not (math.isfinite(dec) and -90.0 <= dec <= 90.0):
-            raise InvalidValue(f"Declination {dec} is outside -90..90 degrees")
-
-    @staticmethod
-    def _check_horizontal(azimuth: float, altitude: float) -> None:
-        if not (math.isfinite(azimuth) and 0.0 <= azimuth <= 360.0):
-            raise InvalidValue(f"Azimuth {azimuth} is outside 0..360 degrees")
-        if not (math.isfinite(altitude) and -90.0 <= altitude <= 90.0):
-            raise InvalidValue(f"Altitude {altitude} is outside -90..90 degrees")
-
-    def _check_above_limits(self, ra: float, dec: float) -> None:
-        """Refuse a target below the configured horizon before anything is sent to the mount."""
-        ha = sky.hour_angle(self._lst(), ra)
-        altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, self.settings.site.latitude)
-        floor = horizon_altitude_at(self.settings.limits, azimuth)
-        if altitude < floor:
-            raise InvalidValue(
-                f"target is below the horizon limit: altitude {altitude:.2f}° at azimuth {azimuth:.1f}° "
-                f"is under the {floor:.2f}° allowed there"
-            )
-
     def slew_to_coordinates_async(self, right_ascension: float, declination: float) -> None:
         self._slew_to_coordinates(right_ascension, declination)
 
@@ -455,8 +496,8 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         self.motion.wait(self._slew_to_coordinates(right_ascension, declination))
 
     def _slew_to_coordinates(self, right_ascension: float, declination: float) -> Motion:
-        self._check_equatorial(right_ascension, declination)
-        self._require_connected()
+        pointing.check_equatorial(right_ascension, declination)
+        self.connection.require_connected()
         self._require_unparked("SlewToCoordinatesAsync")
         self._target_ra, self._target_dec = right_ascension, declination
         return self._goto(right_ascension, declination)
@@ -469,28 +510,24 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
 
     def _slew_to_target(self) -> Motion:
         ra, dec = self.target_right_ascension(), self.target_declination()
-        self._require_connected()
+        self.connection.require_connected()
         self._require_unparked("SlewToTargetAsync")
         return self._goto(ra, dec)
 
     def _goto(self, ra: float, dec: float) -> Motion:
-        self._check_above_limits(ra, dec)
+        pointing.check_above_limits(self.settings, self._lst(), ra, dec)
         return self.flips.goto(ra, dec, self._keep_east_setting(ra))
 
     def _keep_east_setting(self, ra: float) -> MeridianSettings | None:
         """The temporary limit that keeps a mount on pierEast there past the meridian (sky.kept_goto_side),
         None where the mount's own setting gives the side DestinationSideOfPier promises."""
-        if not self.flips_by_limit():
+        if not self.caps.flips_by_limit():
             return None  # alt-az, or firmware without :STa: the mount's own rule
         ha, side, own_limit = sky.hour_angle(self._lst(), ra), self._pier(), self._flip_limit_deg()
         limit = sky.side_limit_deg(ha, PierSide.EAST)
         if limit is None or sky.kept_goto_side(ha, side, own_limit) is sky.goto_pier_side(ha, side, own_limit):
             return None
         return side_setting(limit)
-
-    def _radec_from_altaz(self, azimuth: float, altitude: float) -> tuple[float, float]:
-        ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
-        return sky.ra_from_hour_angle(self._lst(), ha), dec
 
     def slew_to_alt_az_async(self, azimuth: float, altitude: float) -> None:
         self._slew_to_alt_az(azimuth, altitude)
@@ -499,20 +536,20 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         self.motion.wait(self._slew_to_alt_az(azimuth, altitude))
 
     def _slew_to_alt_az(self, azimuth: float, altitude: float) -> Motion:
-        self._check_horizontal(azimuth, altitude)
-        self._require_connected()
+        pointing.check_horizontal(azimuth, altitude)
+        self.connection.require_connected()
         self._require_unparked("SlewToAltAzAsync")
+        lst = self._lst()
         ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
-        self._check_above_limits(sky.ra_from_hour_angle(self._lst(), ha), dec)
+        pointing.check_above_limits(self.settings, lst, sky.ra_from_hour_angle(lst, ha), dec)
         tracking = bool(self.mount.state.tracking and self.mount.state.tracking.on)
         # With tracking off the pointing is frozen on the Alt/Az at the landing instant; with it on,
         # the slew ends at the instant the pointing passes the Alt/Az, and tracking carries on.
         self.flips.restore_now()  # no slew runs under a pier flip's temporary meridian limit
         return self.motion.goto_fixed(ha, dec, MotionKind.ALTAZ, freeze=not tracking)
 
-
     def abort_slew(self) -> None:
-        self._require_connected()
+        self.connection.require_connected()
         self._require_unparked("AbortSlew")
         self.motion.abort()
 
@@ -524,8 +561,8 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
             raise InvalidOperation(f"{what} needs Tracking=true (a sync is made on a tracked position)")
 
     def sync_to_coordinates(self, right_ascension: float, declination: float) -> None:
-        self._check_equatorial(right_ascension, declination)
-        self._require_connected()
+        pointing.check_equatorial(right_ascension, declination)
+        self.connection.require_connected()
         self._require_unparked("SyncToCoordinates")
         self._require_tracking("SyncToCoordinates")
         self._sync(right_ascension, declination)
@@ -533,16 +570,16 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
 
     def sync_to_target(self) -> None:
         ra, dec = self.target_right_ascension(), self.target_declination()
-        self._require_connected()
+        self.connection.require_connected()
         self._require_unparked("SyncToTarget")
         self._require_tracking("SyncToTarget")
         self._sync(ra, dec)
 
     def sync_to_alt_az(self, azimuth: float, altitude: float) -> None:
-        self._check_horizontal(azimuth, altitude)
-        self._require_connected()
+        pointing.check_horizontal(azimuth, altitude)
+        self.connection.require_connected()
         self._require_unparked("SyncToAltAz")
-        self._sync(*self._radec_from_altaz(azimuth, altitude))
+        self._sync(*pointing.radec_from_altaz(self.settings, self._lst(), azimuth, altitude))
 
     def _sync(self, ra: float, dec: float) -> None:
         if self.motion.slewing():
@@ -558,12 +595,12 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
     # -- home, park ----------------------------------------------------------------------------
 
     def find_home(self) -> None:
-        self._require_connected()
+        self.connection.require_connected()
         self._require_unparked("FindHome")
         self.motion.home()
 
     def park(self) -> None:
-        self._require_connected()
+        self.connection.require_connected()
         self._park()
 
     def _park(self) -> Motion | None:
@@ -575,7 +612,7 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
         return self.motion.goto_fixed(park.ha_hours, park.dec_deg, MotionKind.PARK, freeze=True)
 
     def unpark(self) -> None:
-        self._require_connected()
+        self.connection.require_connected()
         self.motion.parked = False
 
     def set_park(self) -> None:
@@ -588,13 +625,12 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
     # -- manual motion ---------------------------------------------------------------------------
 
     def move_axis(self, axis: int, rate: float) -> None:
-        if not self.can_move_axis(axis):
+        if not self.caps.can_move_axis(axis):
             raise MemberNotImplemented(f"axis {axis} cannot be moved on this mount: CanMoveAxis({axis}) is false")
-        if not math.isfinite(rate) or (rate != 0.0 and not AXIS_MIN_DEG_S <= abs(rate) <= self._max_rate()):
-            raise InvalidValue(
-                f"rate {rate} deg/s is outside the axis rates: 0, or ±{AXIS_MIN_DEG_S:.6f} to ±{self._max_rate():.4f}"
-            )
-        self._require_connected()
+        if not math.isfinite(rate) or (rate != 0.0 and not AXIS_MIN_DEG_S <= abs(rate) <= self.caps.max_rate()):
+            raise InvalidValue(f"rate {rate} deg/s is outside the axis rates: 0, "
+                               f"or ±{AXIS_MIN_DEG_S:.6f} to ±{self.caps.max_rate():.4f}")
+        self.connection.require_connected()
         self._require_unparked("MoveAxis")
         self.motion.move_axis(axis, rate, current_client.get())
 
@@ -606,6 +642,6 @@ class Telescope(ConnectionMixin, CapabilitiesMixin):
             raise InvalidValue(f"Direction {direction} is not 0 (N), 1 (S), 2 (E) or 3 (W)")
         if not 0 <= duration <= longest:
             raise InvalidValue(f"Duration {duration} ms is outside 0..{longest} ms (safety.guide_max_ms)")
-        self._require_connected()
+        self.connection.require_connected()
         self._require_unparked("PulseGuide")
         self.motion.pulse(GUIDE_DIRECTIONS[direction], duration)
