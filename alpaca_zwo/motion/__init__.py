@@ -1,4 +1,15 @@
-"""Motion: the one owner of every motion of a mount (see ``supervisor.py`` for the lock rules)."""
+"""Motion: the one owner of every motion of a mount.
+
+``supervisor.MotionSupervisor`` starts, watches, lands and stops every motion; it owns small parts,
+each with its own state: ``guiding.Guiding`` (client pulses, alt-az timed moves), ``offsets.OffsetPayer``
+(rate offsets, paid from the ledger in ``balance``), ``landing.Lander`` (landing exactly where asked),
+``rest.RestDetector`` (rest from readings), ``limits.Limits`` (braking-aware limits) and
+``kinds.Generation`` (the stop generation every command's guard reads). ``flip.PierFlips`` runs GOTOs
+that must land on a chosen pier side under a temporary meridian limit. Lock rules: at the top of
+``supervisor.py``.
+
+May import mount, config, zwo, clients and sky.
+"""
 
 from .kinds import MAX_MOTION_S, Motion, MotionKind, Phase
 from .supervisor import MotionSupervisor

@@ -23,9 +23,8 @@ with everything else; a timed move that cannot be stopped triggers a safety stop
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from .._exceptions import (
     InvalidOperation,
@@ -38,81 +37,87 @@ from .._exceptions import (
 from ..mount.operations import PULSE_CHUNK_MS, Mount
 from ..sky import SIDEREAL_DEG_S
 from ..zwo.wire_values import Direction
-from .kinds import Motion, MotionKind, Pulse
-
-if TYPE_CHECKING:
-    import threading
-
-    from .offsets import RateOffsets
+from .balance import RateOffsets
+from .kinds import Generation, Pulse, TimedMove, direction_sign, pulse_axis
 
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class TimedMove:
-    """An alt-az pulse under way on one axis (mount times)."""
+class Guiding:
+    """Guide pulses and the alt-az timed moves that stand in for them, for one mount.
 
-    start: float  # the move command was written (on an idle line)
-    end: float  # due to stop
+    Owns ``pulses`` (axis -> the client pulse still being sent in chunks) and ``timed_moves``
+    (axis -> the alt-az pulse move running there), and two locks it creates:
 
+    - ``_lock`` guards those two dicts; never held across I/O. Taken after the supervisor's
+      ``_lock`` when a stop forgets them (supervisor ``_lock`` -> ``Guiding._lock``), never the
+      reverse: nothing here knows the supervisor's locks.
+    - ``timed_lock`` makes starting or ending one alt-az timed move, and one speed change of an
+      alt-az offset move with its booking (``OffsetPayer``), a single step; held across that one
+      move command, then ``_lock`` may be taken inside it (``timed_lock`` -> ``_lock``). Never taken
+      by a stop (``abort``'s ``:Q#`` ends every move anyway).
 
-def pulse_axis(direction: Direction) -> int:
-    """0 for the RA axis (east/west), 1 for Dec (north/south)."""
-    return 0 if direction in (Direction.EAST, Direction.WEST) else 1
+    Lent: ``ledger`` (the supervisor's RateOffsets: a client pulse refunds or hands over the offset
+    on its axis) and ``stops`` (the supervisor's Generation, read for guards). ``notify`` wakes the
+    supervisor loop; ``safety_stop`` is called when a timed move cannot be stopped."""
 
+    def __init__(self, *, mount: Mount, ledger: RateOffsets, stops: Generation,
+                 notify: Callable[[], None], safety_stop: Callable[[str], None]) -> None:
+        self.mount = mount
+        self._ledger = ledger
+        self._stops = stops
+        self._notify = notify
+        self._safety_stop = safety_stop
+        self._lock = threading.Lock()
+        self.timed_lock = threading.Lock()
+        self.pulses: dict[int, Pulse] = {}
+        self.timed_moves: dict[int, TimedMove] = {}
 
-def direction_sign(direction: Direction) -> float:
-    """+1 for east and north (the axes' positive senses), -1 for west and south."""
-    return 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
+    @property
+    def busy(self) -> bool:
+        """A client pulse is still being sent, or an alt-az timed move runs."""
+        return bool(self.pulses) or bool(self.timed_moves)
 
-
-class GuidingMixin:
-    """The guide-pulse part of MotionSupervisor."""
-
-    mount: Mount
-    motion: Motion | None
-    pulses: dict[int, Pulse]
-    timed_moves: dict[int, TimedMove]  # axis -> the alt-az pulse move running there
-    offsets: RateOffsets
-    generation: int
-    _start_lock: threading.Lock
-    _lock: threading.Lock
-    _timed_lock: threading.Lock  # one timed-move start or end at a time (held across its I/O)
-
-    if TYPE_CHECKING:  # provided by MotionSupervisor
-        def _guard(self, generation: int) -> Callable[[], bool]: ...
-        def _notify(self) -> None: ...
-        def safety_stop(self, why: str) -> None: ...
+    def wake_delays(self, now: float, rate: float) -> list[float]:
+        """Real seconds until each pulse chunk and each timed move is due (``rate``: mount clock rate)."""
+        delays = [max(0.0, pulse.chunk_end - now) / rate for pulse in self.pulses.values()]
+        delays.extend(max(0.0, move.end - now) / rate for move in self.timed_moves.values())
+        return delays
 
     # -- one pulse, as the mount can make it -----------------------------------------------------
 
-    def _guide_pulse(self, direction: Direction, milliseconds: int, guard: Callable[[], bool] | None = None) -> float:
+    def guide_pulse(self, direction: Direction, milliseconds: int, guard: Callable[[], bool] | None = None) -> float:
         """Send one pulse (≤ 3000 ms in equatorial mode, any length in alt-az); return its end in
         mount time. Raises what the link raises; MotionCancelled if ``guard`` withdrew it."""
         state = self.mount.state
         if not state.altaz:
             return self.mount.pulse_guide(direction, milliseconds, guard=guard)
         axis = pulse_axis(direction)
-        with self._timed_lock:
+        with self.timed_lock:
             start = self.mount.drift(axis, direction_sign(direction) * state.guide_rate * SIDEREAL_DEG_S,
                                      guard=guard)  # when the move command was written
-            self.offsets.handover(axis, start)  # an offset move there ended as this one began
+            self._ledger.handover(axis, start)  # an offset move there ended as this one began
             move = TimedMove(start, start + milliseconds / 1000.0)
             with self._lock:
                 self.timed_moves[axis] = move
         self._notify()
         return move.end
 
+    def tick(self, now: float) -> None:
+        """Send the next chunks of long pulses, then stop the timed moves whose time is up."""
+        self._tick_pulses(now)
+        self._tick_timed_moves(now)
+
     def _tick_timed_moves(self, now: float) -> None:
         """Stop the alt-az pulse moves whose time is up."""
         for axis, move in list(self.timed_moves.items()):
             if now >= move.end:
-                self._end_timed_move(axis, move)
+                self.end_timed_move(axis, move)
 
-    def _end_timed_move(self, axis: int, move: TimedMove | None = None) -> None:
+    def end_timed_move(self, axis: int, move: TimedMove | None = None) -> None:
         """Stop one timed move (``move``: only if it is still that one, not a newer pulse's). The check
-        and the stop are one step under ``_timed_lock``, so a pulse started meanwhile is never cut."""
-        with self._timed_lock:
+        and the stop are one step under ``timed_lock``, so a pulse started meanwhile is never cut."""
+        with self.timed_lock:
             with self._lock:
                 running = self.timed_moves.get(axis)
                 if running is None or (move is not None and running is not move):
@@ -124,32 +129,56 @@ class GuidingMixin:
                 failure = exc
             else:
                 return
-        self.safety_stop(f"ending an alt-az guide pulse on axis {axis} failed: {failure}")
+        self._safety_stop(f"ending an alt-az guide pulse on axis {axis} failed: {failure}")
+
+    def end_all(self) -> None:
+        """End every timed move with its own stop command (the last client gone, shutdown)."""
+        for axis in list(self.timed_moves):
+            self.end_timed_move(axis)
+
+    # -- forgetting (stops) ----------------------------------------------------------------------
+
+    def forget_pulses(self) -> None:
+        """Send no more chunks of the client pulses (the mount finishes the chunk it has)."""
+        with self._lock:
+            self.pulses.clear()
+
+    def forget_timed_moves(self) -> None:
+        """The mount took a :Q#, which ended every timed move: stop none of them again."""
+        with self._lock:
+            self.timed_moves.clear()
+
+    def forget(self) -> None:
+        """An abort: its :Q# ends everything, so forget every pulse and timed move. Called after the
+        abort bumped the generation, so a pulse being started meanwhile is either forgotten here or
+        never registered (:meth:`start` registers it only if the generation is unchanged)."""
+        with self._lock:
+            self.pulses.clear()
+            self.timed_moves.clear()
 
     # -- the clients' PulseGuide -----------------------------------------------------------------
 
-    def pulse(self, direction: Direction, duration_ms: int) -> None:
-        """Start a guide pulse of any length (sent in chunks the mount accepts)."""
-        if self.motion is not None and self.motion.kind is not MotionKind.STOP:
-            raise InvalidOperation(f"cannot pulse guide during a {self.motion.kind.value}")
-        if duration_ms == 0:
-            return
+    def first_chunk_ms(self, duration_ms: int) -> int:
+        """The part of a client pulse sent at once: all of it in alt-az (a timed move), else at
+        most what the mount takes in one ``:Mg``."""
+        return duration_ms if self.mount.state.altaz else min(duration_ms, PULSE_CHUNK_MS)
+
+    def start(self, direction: Direction, duration_ms: int, chunk: int) -> None:
+        """Start a client pulse of any length with its first ``chunk`` (:meth:`first_chunk_ms`); the
+        supervisor's loop sends the rest (:meth:`tick`). Callers hold the supervisor's ``_start_lock``."""
         axis = pulse_axis(direction)
-        chunk = duration_ms if self.mount.state.altaz else min(duration_ms, PULSE_CHUNK_MS)
-        with self._start_lock:
-            self.offsets.refund(axis, self.mount.monotonic())  # this pulse replaces any offset pulse
-            generation = self.generation
-            try:
-                end = self._guide_pulse(direction, chunk, guard=self._guard(generation))
-            except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:
-                if isinstance(exc, MotionCancelled):
-                    raise InvalidOperation("PulseGuide cancelled: a stop arrived while it was starting") from exc
-                raise driver_error("PulseGuide", exc) from exc
-            with self._lock:
-                if self.generation == generation:
-                    self.pulses[axis] = Pulse(direction, duration_ms - chunk,
-                                              end - chunk / 1000.0 + duration_ms / 1000.0, end)
-        self._notify()
+        self._ledger.refund(axis, self.mount.monotonic())  # this pulse replaces any offset pulse
+        generation = self._stops.value
+        try:
+            end = self.guide_pulse(direction, chunk, guard=self._stops.guard(generation))
+        except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:
+            if isinstance(exc, MotionCancelled):
+                raise InvalidOperation("PulseGuide cancelled: a stop arrived while it was starting") from exc
+            raise driver_error("PulseGuide", exc) from exc
+        with self._lock:
+            if self._stops.value == generation:
+                self.pulses[axis] = Pulse(direction, duration_ms - chunk,
+                                          end - chunk / 1000.0 + duration_ms / 1000.0, end)
 
     def _tick_pulses(self, now: float) -> None:
         """Send the next chunk of long pulses. If the link is down, retry until the pulse's own end:
@@ -163,9 +192,9 @@ class GuidingMixin:
                         del self.pulses[axis]
                 continue
             chunk = min(pulse.remaining_ms, PULSE_CHUNK_MS)
-            generation = self.generation
+            generation = self._stops.value
             try:
-                end = self._guide_pulse(pulse.direction, chunk, guard=self._guard(generation))
+                end = self.guide_pulse(pulse.direction, chunk, guard=self._stops.guard(generation))
             except MotionCancelled:
                 continue
             except (LinkError, ProtocolError, MountReplyError) as exc:

@@ -1,9 +1,15 @@
-"""What a motion is: its kind, its phase, and the records the supervisor keeps about it."""
+"""What a motion is: its kind, its phase, and the records the supervisor and its parts share.
+
+Also the stop generation (:class:`Generation`), which every part reads to guard its commands, and
+the plain facts about a guide pulse's axis and sense, which guiding, the offset ledger and the
+offset payer all use (kept here so none of them imports another for them).
+"""
 
 from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -99,6 +105,47 @@ class Pulse:
     remaining_ms: int
     deadline: float
     chunk_end: float
+
+
+@dataclass(frozen=True)
+class TimedMove:
+    """An alt-az pulse under way on one axis (mount times)."""
+
+    start: float  # the move command was written (on an idle line)
+    end: float  # due to stop
+
+
+def pulse_axis(direction: Direction) -> int:
+    """0 for the RA axis (east/west), 1 for Dec (north/south)."""
+    return 0 if direction in (Direction.EAST, Direction.WEST) else 1
+
+
+def direction_sign(direction: Direction) -> float:
+    """+1 for east and north (the axes' positive senses), -1 for west and south."""
+    return 1.0 if direction in (Direction.EAST, Direction.NORTH) else -1.0
+
+
+class Generation:
+    """The stop generation: every stop and every new start bumps it, and every motion command
+    carries a guard ("still this generation") that the link checks right before writing, so a
+    command racing a stop is either written before the stop or never.
+
+    Owned by MotionSupervisor; :meth:`bump` is called only with the supervisor's ``_lock`` held.
+    Its parts read :attr:`value` and build guards without a lock (an int read is atomic)."""
+
+    def __init__(self) -> None:
+        self.value = 0
+
+    def bump(self) -> int:
+        """Withdraw every command guarded with an older generation; the new value (callers hold
+        MotionSupervisor._lock)."""
+        self.value += 1
+        return self.value
+
+    def guard(self, generation: int | None = None) -> Callable[[], bool]:
+        """A guard that holds while the generation is still ``generation`` (None: the value now)."""
+        expected = self.value if generation is None else generation
+        return lambda: self.value == expected
 
 
 def _wrap12(hours: float) -> float:

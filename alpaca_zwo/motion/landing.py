@@ -16,7 +16,6 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
 from .._exceptions import (
     LinkError,
@@ -25,10 +24,11 @@ from .._exceptions import (
     ProtocolError,
 )
 from ..mount.operations import PULSE_CHUNK_MS, Mount
-from ..mount.state import MountState
 from ..sky import SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
 from ..zwo.wire_values import Direction
-from .kinds import Landing, Motion, Phase, _wrap12
+from .guiding import Guiding
+from .kinds import Generation, Landing, Motion, Phase, _wrap12
+from .rest import RestDetector
 
 log = logging.getLogger(__name__)
 
@@ -50,30 +50,29 @@ MAX_LANDING_ATTEMPTS = 3
 MIN_PULSE_MS = 5
 
 
-class LandingMixin:
-    """The arrival and landing phases of MotionSupervisor."""
+class Lander:
+    """The arrival and landing phases of a slew (the module docstring).
 
-    mount: Mount
-    _lst: Callable[[], float]
+    Owns no state and no lock: the landing record is the motion's own (``Motion.landing``), and
+    every call comes from the supervisor with the motion it is about (its loop, or a start under
+    the supervisor's ``_start_lock``). Uses ``guiding`` for residual pulses, ``rest`` to see the
+    mount at rest, ``stops`` (the supervisor's Generation) for the guards of its commands, and
+    ``lst`` for local sidereal time."""
 
-    if TYPE_CHECKING:  # provided by MotionSupervisor
-        def _guard(self, generation: int) -> Callable[[], bool]: ...
-        def _guide_pulse(self, direction: Direction, milliseconds: int,
-                         guard: Callable[[], bool] | None = None) -> float: ...
-        def _settle(self, motion: Motion, now: float) -> None: ...
-        def _at_rest(self, motion: Motion, now: float) -> bool: ...
-        def _tick_motion(self, now: float, state: MountState) -> None: ...
+    def __init__(self, *, mount: Mount, lst: Callable[[], float], guiding: Guiding, rest: RestDetector,
+                 stops: Generation) -> None:
+        self.mount = mount
+        self._lst = lst
+        self._guiding = guiding
+        self._rest = rest
+        self._stops = stops
 
-
-
-
-
-    def _see_arrival(self, landing: Landing) -> float:
+    def see_arrival(self, landing: Landing) -> float:
         """Mount seconds the server needs to see an arrival; with tracking on, also to confirm rest."""
         real_s = SEE_ARRIVAL_REAL_S + (0.0 if landing.freeze else CONFIRM_REST_REAL_S)
         return real_s * self.mount.clock_rate
 
-    def _aim(self, landing: Landing, lead_s: float) -> float:
+    def aim(self, landing: Landing, lead_s: float) -> float:
         """Pick the whole-second RA the ground point will have ``lead_s`` or a little more from now,
         and record the instant t* at which it has it."""
         now = self.mount.monotonic()
@@ -85,7 +84,7 @@ class LandingMixin:
         landing.t_star = now + lead_s + (ra_wire - ra_exact) / SIDEREAL_HOURS_PER_S
         return ra_wire % 24.0
 
-    def _arrived(self, motion: Motion, now: float) -> None:
+    def arrived(self, motion: Motion, now: float) -> None:
         """The mount says the slew is over: start the landing, or settle."""
         landing = motion.landing
         if landing is not None and self.mount.running:
@@ -98,7 +97,7 @@ class LandingMixin:
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.warning("%s: fine landing skipped: %s", motion.kind.value, exc)
         self._after_arrival(motion)
-        self._settle(motion, now)
+        self.settle(motion, now)
 
     def _land_sky(self, motion: Motion, landing: Landing, now: float) -> None:
         """Pulse away the whole-second/arcsecond rounding of the target the mount was given."""
@@ -111,8 +110,8 @@ class LandingMixin:
             ms = round(abs(delta) / guide_deg_s * 1000.0)
             if ms >= MIN_PULSE_MS:
                 direction = positive if delta > 0 else negative
-                end = max(end, self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS),
-                                                 guard=self._guard(motion.generation)))
+                end = max(end, self._guiding.guide_pulse(direction, min(ms, PULSE_CHUNK_MS),
+                                                 guard=self._stops.guard(motion.generation)))
         landing.pulse_end = end
         self._after_arrival(motion)
         motion.phase = Phase.LANDING if end > now else Phase.SETTLING
@@ -130,7 +129,7 @@ class LandingMixin:
             log.warning("%s: arrived too late for the landing instant %d times; landing as is",
                         motion.kind.value, landing.attempts)
             self._after_arrival(motion)
-            self._settle(motion, now)
+            self.settle(motion, now)
             return
         self._correct(motion, landing, now)
 
@@ -141,7 +140,8 @@ class LandingMixin:
         if ms >= MIN_PULSE_MS:
             direction = Direction.NORTH if d_dec > 0 else Direction.SOUTH
             try:
-                self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(motion.generation))
+                self._guiding.guide_pulse(direction, min(ms, PULSE_CHUNK_MS),
+                                          guard=self._stops.guard(motion.generation))
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.debug("Dec residual pulse not sent: %s", exc)
 
@@ -150,34 +150,37 @@ class LandingMixin:
         assert landing.t_star is not None
         log.debug("%s: %.2f s late for the landing instant; correcting GOTO", motion.kind.value,
                   now - landing.t_star)
-        ra = self._aim(landing, CORRECTION_LEAD_S + self._see_arrival(landing))
+        ra = self.aim(landing, CORRECTION_LEAD_S + self.see_arrival(landing))
         motion.saw_busy = False
         motion.started = self.mount.monotonic()
-        wire = self.mount.goto(ra, landing.dec, guard=self._guard(motion.generation))
+        wire = self.mount.goto(ra, landing.dec, guard=self._stops.guard(motion.generation))
         landing.wire = wire
         landing.attempts += 1
         motion.phase = Phase.MOVING
 
-    def _tick_landing(self, motion: Motion, now: float) -> None:
+    def tick(self, motion: Motion, now: float) -> float | None:
+        """One supervisor tick of a LANDING motion. Returns the instant it came to rest when a tracked
+        slew ends at t* already at rest (SETTLE_TIME): the supervisor then runs that phase at once
+        from there; else None."""
         landing = motion.landing
         assert landing is not None
         if not landing.ground:
             if now >= landing.pulse_end:
-                self._settle(motion, now)
-            return
+                self.settle(motion, now)
+            return None
         assert landing.t_star is not None
         rate = self.mount.clock_rate
         if (landing.t_star - now) / rate > 0.06:
-            if motion.at_rest is None and not landing.freeze and self._at_rest(motion, now):
+            if motion.at_rest is None and not landing.freeze and self._rest.at_rest(motion, now):
                 motion.at_rest = now  # tracking steadily: the slew can end at t* itself
-            return
+            return None
         if not landing.freeze and motion.at_rest is None and landing.attempts < MAX_LANDING_ATTEMPTS:
             # Tracking on, and rest not yet confirmed: ending at t* could report a moving mount as
             # arrived, ending later would pass the Alt/Az. Aim again at a later instant instead.
             self._correct(motion, landing, now)
-            return
+            return None
         if not self._at_landing_instant(motion, landing):
-            return
+            return None
         if motion.restore_tracking is True:
             motion.restore_tracking = None  # already tracking: nothing to restore
         self._after_arrival(motion, skip_tracking=landing.freeze)
@@ -185,9 +188,9 @@ class LandingMixin:
             # Already at rest and tracking: the pointing passes the Alt/Az now, so the slew ends now.
             motion.at_rest = self.mount.monotonic()
             motion.phase = Phase.SETTLE_TIME
-            self._tick_motion(motion.at_rest, self.mount.state)
-            return
-        self._settle(motion, self.mount.monotonic())
+            return motion.at_rest
+        self.settle(motion, self.mount.monotonic())
+        return None
 
     def _at_landing_instant(self, motion: Motion, landing: Landing) -> bool:
         """At t* exactly: freeze the pointing (:Td# written at t*) or just let the moment come.
@@ -196,7 +199,7 @@ class LandingMixin:
         at_real = time.monotonic() + (landing.t_star - self.mount.monotonic()) / self.mount.clock_rate
         if landing.freeze:
             try:
-                self.mount.set_tracking(False, guard=self._guard(motion.generation), not_before=at_real)
+                self.mount.set_tracking(False, guard=self._stops.guard(motion.generation), not_before=at_real)
             except MotionCancelled:
                 return False
             except (LinkError, ProtocolError, MountReplyError) as exc:
@@ -216,3 +219,9 @@ class LandingMixin:
         except (LinkError, ProtocolError, MountReplyError) as exc:
             log.error("after %s: could not set tracking: %s", motion.kind.value, exc)
         motion.restore_tracking = None
+
+    def settle(self, motion: Motion, now: float) -> None:
+        """The commanded motion is over: wait for readings taken from ``now`` on to show rest."""
+        motion.phase = Phase.SETTLING
+        motion.rest_from = max(motion.rest_from, now)
+        self.mount.refresh()

@@ -10,7 +10,6 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
 from .. import sky
 from .._exceptions import (
@@ -23,9 +22,6 @@ from ..zwo.wire_values import MountMode
 from .kinds import DECELERATION_DEG_S2, TICK_S, _wrap12
 
 log = logging.getLogger(__name__)
-
-if TYPE_CHECKING:
-    from .kinds import ManualMove
 
 #: Reaction allowance for a limit stop on top of the braking distance, in supervisor ticks.
 LIMIT_TICKS = 2.0
@@ -55,36 +51,22 @@ def _flip_limit(settings: Settings, state: MountState) -> float | None:
     return limit if limit < 0.0 or limits.meridian_track_past else 0.0
 
 
-class LimitsMixin:
-    """The limit checks of MotionSupervisor."""
+class Limits:
+    """The braking-aware limit rules for manual moves (the module docstring). Owns no state and no
+    lock; the supervisor stops the moves these rules condemn (``MotionSupervisor._tick_limits``)."""
 
-    mount: Mount
-    moves: dict[int, ManualMove]
-    _settings: Callable[[], Settings]
-    _lst: Callable[[], float]
+    def __init__(self, *, mount: Mount, settings: Callable[[], Settings], lst: Callable[[], float]) -> None:
+        self.mount = mount
+        self._settings = settings
+        self._lst = lst
 
-    if TYPE_CHECKING:  # provided by MotionSupervisor
-        def stop_axis(self, axis: int, why: str) -> None: ...
-
-
-    def _check_move_allowed(self, axis: int, rate: float) -> None:
+    def check_move(self, axis: int, rate: float) -> None:
         """Refuse a manual move that would have to stop at once (already at a limit, heading on)."""
-        limit = self._limit_reached({axis: rate}, self.mount.state, running=False)
+        limit = self.reached({axis: rate}, self.mount.state, running=False)
         if limit:
             raise InvalidOperation(f"MoveAxis refused: {limit}")
 
-    def _tick_limits(self, state: MountState) -> None:
-        """Stop a manual move before it reaches the horizon, minimum altitude or meridian limit:
-        where it would come to rest if stopped now (braking distance plus reaction time)."""
-        if not self.moves:
-            return
-        moves = {axis: move.rate for axis, move in self.moves.items()}
-        reason = self._limit_reached(moves, state)
-        if reason:
-            for axis in list(self.moves):
-                self.stop_axis(axis, f"manual move stopped before the {reason}")
-
-    def _limit_reached(self, moves: dict[int, float], state: MountState, running: bool = True) -> str:
+    def reached(self, moves: dict[int, float], state: MountState, running: bool = True) -> str:
         """Why stopping now would bring the mount to rest beyond a limit ('' if it would not). A move
         already ``running`` has carried the mount on since the last reading, for the reading's age."""
         position = self.mount.position()

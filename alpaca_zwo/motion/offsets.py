@@ -22,48 +22,38 @@ In alt-az mode the mount's pulses move nothing, and the host would have to time 
 and stop (``guiding.py``), each a few milliseconds off at the whole pulse speed. Its moves, though,
 run at any 0.01x step (``:Rv``) and change speed on the next ``:M?#``. So in alt-az each offset is one
 continuous move whose speed is set once a cycle to the step nearest to the rate plus what is owed
-(:meth:`OffsetsMixin._modulate`, a sigma-delta modulator): it alternates between the two steps around
+(:meth:`OffsetPayer._modulate`, a sigma-delta modulator): it alternates between the two steps around
 the rate, the pointing stays within a step x a cycle (0.08″) of the ideal path, and timing errors
 count only at the change of speed (0.15″/s). A client pulse takes the axis over for its length; the
 offset keeps accruing and is paid after it.
+
+The ledger (:class:`~alpaca_zwo.motion.balance.RateOffsets`) lives in ``balance.py``: MotionSupervisor
+owns it and lends it to :class:`OffsetPayer` (here) and to ``guiding.Guiding``.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 from .._exceptions import LinkError, MotionCancelled, MountReplyError, ProtocolError
 from ..mount.operations import PULSE_CHUNK_MS, Mount
 from ..mount.state import MountState
 from ..sky import SIDEREAL_DEG_S, SOLAR_SECONDS_PER_SIDEREAL_SECOND
-from ..zwo.wire_values import Direction
-from .guiding import direction_sign
-
-if TYPE_CHECKING:
-    import threading
-
-    from .guiding import TimedMove
-    from .kinds import ManualMove, Motion, Pulse
+from .balance import CYCLE_S, RateOffsets
+from .guiding import Guiding
+from .kinds import Generation, direction_sign
 
 log = logging.getLogger(__name__)
 
-#: Mount seconds between offset pulses.
-CYCLE_S = 0.5
 #: The largest offset (arcsec/s), paid by a continuous move: a generous bound for comets and
 #: satellites of the solar system, far below slewing speeds.
 MAX_OFFSET_ARCSEC = 600.0
 #: The largest offset, as a fraction of the guide speed.
 MAX_DUTY = 0.9
-#: Owed displacement below this many milliseconds of pulse waits for the next cycle.
-MIN_PULSE_MS = 5
 
 #: The mount's variable-rate step (0.01x sidereal) in arcsec/s.
 _RATE_STEP_ARCSEC = 0.01 * SIDEREAL_DEG_S * 3600.0
-
-_DIRECTIONS = ((Direction.EAST, Direction.WEST), (Direction.NORTH, Direction.SOUTH))
 
 
 def by_pulses(rate_arcsec: float, guide_arcsec_s: float) -> bool:
@@ -81,142 +71,51 @@ def ra_rate_to_arcsec(seconds_per_sidereal_second: float) -> float:
     return seconds_per_sidereal_second * 15.0 / SOLAR_SECONDS_PER_SIDEREAL_SECOND
 
 
-@dataclass
-class AxisOffset:
-    rate: float = 0.0  # arcsec/s: + is east (RA up) on axis 0, north on axis 1
-    owed: float = 0.0  # arcsec accrued and not yet paid
-    pulse_end: float = 0.0  # mount time the last offset pulse ends
-    pulse_speed: float = 0.0  # signed arcsec/s of that pulse
-    start_delay: float = 0.0  # mount s from deciding a pulse to its start (smoothed): paid that much ahead
-    drift_speed: float = 0.0  # alt-az: signed arcsec/s of the offset move running (as the mount runs it)
-    drift_since: float = 0.0  # alt-az: mount time up to which that move's displacement is booked
+class OffsetPayer:
+    """Pays the rate offsets: guide pulses for small ones, a slow move for large (the module docstring).
 
-    def book_drift(self, until: float) -> None:
-        """Alt-az: count what the offset move paid up to ``until`` (mount time) against the balance."""
-        self.owed -= self.drift_speed * (until - self.drift_since)
-        self.drift_since = until
+    Owns no state and no lock. Lent by MotionSupervisor: ``ledger`` (its RateOffsets), ``stops`` (its
+    Generation, for guards) and ``moving`` (whether a slew, a stop or a manual move is under way:
+    offsets then start afresh). Uses ``guiding`` (the supervisor's Guiding): its pulses, its timed
+    moves (an axis running a client pulse belongs to that pulse) and its ``timed_lock``, which a
+    speed change of an alt-az offset move and a client's new rate take."""
 
-
-@dataclass
-class RateOffsets:
-    """Owed displacement per axis and when it was last accrued (mount time)."""
-
-    axes: tuple[AxisOffset, AxisOffset] = field(default_factory=lambda: (AxisOffset(), AxisOffset()))
-    accrued_at: float | None = None
-
-    @property
-    def active(self) -> bool:
-        return any(axis.rate != 0.0 for axis in self.axes)
+    def __init__(self, *, mount: Mount, ledger: RateOffsets, guiding: Guiding, stops: Generation,
+                 moving: Callable[[], bool]) -> None:
+        self.mount = mount
+        self._ledger = ledger
+        self._guiding = guiding
+        self._stops = stops
+        self._moving = moving
 
     def set_rate(self, axis: int, arcsec_per_s: float) -> None:
-        self.axes[axis].rate = arcsec_per_s
-        if not self.active:
-            self.reset()
-
-    def reset(self) -> None:
-        """Forget what is owed (a slew moved the mount somewhere new, tracking stopped)."""
-        for axis in self.axes:
-            axis.owed = 0.0
-            axis.drift_speed = 0.0
-        self.accrued_at = None
-
-    def accrue(self, now: float) -> None:
-        if self.accrued_at is not None:
-            dt = max(0.0, now - self.accrued_at)
-            for axis in self.axes:
-                axis.owed += axis.rate * dt
-        self.accrued_at = now
-
-    def due(self, now: float) -> bool:
-        return self.active and (self.accrued_at is None or now - self.accrued_at >= CYCLE_S)
-
-    def refund(self, index: int, now: float) -> None:
-        """A client pulse replaced the offset pulse on this axis: owe its unfinished part again."""
-        axis = self.axes[index]
-        if axis.pulse_end > now:
-            axis.owed += axis.pulse_speed * (axis.pulse_end - now)
-            axis.pulse_end = now
-
-    def next_pulse(self, index: int, guide_arcsec_s: float) -> tuple[Direction, int] | None:
-        """The pulse that pays what is owed on an axis, plus what accrues until the middle of the next
-        cycle (booked as paid, so the balance goes slightly negative), or None."""
-        axis = self.axes[index]
-        # Half a cycle (and half the pulse) ahead, plus the time a pulse takes to start (its exchange,
-        # the other axis's pulse first): then the pointing swings around the ideal path, not behind it.
-        lead = CYCLE_S * 0.5 * (1.0 + abs(axis.rate) / guide_arcsec_s) + axis.start_delay
-        ms = int(abs(axis.owed + axis.rate * lead) / guide_arcsec_s * 1000.0)
-        if ms < MIN_PULSE_MS:
-            return None
-        positive, negative = _DIRECTIONS[index]
-        direction = positive if axis.owed + axis.rate * lead > 0 else negative
-        paid = ms / 1000.0 * guide_arcsec_s
-        axis.owed -= paid if direction is positive else -paid
-        return direction, ms
-
-    def handover(self, index: int, at: float) -> None:
-        """Alt-az: a client pulse took over the axis at ``at`` (mount time): the offset move ends there."""
-        axis = self.axes[index]
-        if axis.drift_speed:
-            axis.book_drift(at)
-            axis.drift_speed = 0.0
-
-    def sent(self, index: int, decided: float, end: float, ms: int, direction: Direction,
-             guide_arcsec_s: float) -> None:
-        """A pulse of ``ms`` decided at ``decided`` ends at ``end`` (mount times)."""
-        axis = self.axes[index]
-        delay = min(CYCLE_S, max(0.0, end - ms / 1000.0 - decided))
-        axis.start_delay += (delay - axis.start_delay) * 0.3
-        axis.pulse_end = end
-        axis.pulse_speed = direction_sign(direction) * guide_arcsec_s if ms else 0.0
-
-
-class OffsetsMixin:
-    """The rate-offset part of MotionSupervisor: pulses for small offsets, a slow move for large."""
-
-    mount: Mount
-    offsets: RateOffsets
-    motion: Motion | None
-    moves: dict[int, ManualMove]
-    pulses: dict[int, Pulse]
-    timed_moves: dict[int, TimedMove]
-    generation: int
-    _timed_lock: threading.Lock
-
-    if TYPE_CHECKING:  # provided by MotionSupervisor
-        def _guard(self, generation: int) -> Callable[[], bool]: ...
-        def _notify(self) -> None: ...
-        def _guide_pulse(self, direction: Direction, milliseconds: int,
-                         guard: Callable[[], bool] | None = None) -> float: ...
-
-    def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
         """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east).
 
-        Under ``_timed_lock``, which the alt-az modulator holds while its speed change is on the wire:
-        otherwise a client's zeroing (a reset) could land there, the modulator would book the speed it
-        had just set over it, a slew's stop would end that move unbooked, and the next offset would be
+        Under ``Guiding.timed_lock``, which the alt-az modulator holds while its speed change is on the
+        wire: otherwise a client's zeroing (a reset) could land there, the modulator would book the speed
+        it had just set over it, a slew's stop would end that move unbooked, and the next offset would be
         charged for the whole slew (a ConformU run: +0.05″/s measured as 69″/s)."""
-        with self._timed_lock:
-            self.offsets.set_rate(axis, arcsec_per_s)
-        self._notify()
+        with self._guiding.timed_lock:
+            self._ledger.set_rate(axis, arcsec_per_s)
 
-    def _tick_offsets(self, now: float, state: MountState) -> None:
+    def tick(self, now: float, state: MountState) -> None:
         """Pay the rate offsets: guide pulses for small ones, a slow move for large (see offsets.py)."""
-        offsets = self.offsets
+        offsets = self._ledger
         # An axis running an alt-az pulse (a timed move, guiding.py) belongs to that pulse until it ends.
-        own = [axis for axis in (0, 1) if axis not in self.timed_moves]
+        own = [axis for axis in (0, 1) if axis not in self._guiding.timed_moves]
         drifting = any(self.mount.drift_rates[axis] for axis in own)
         if not offsets.active and not drifting:
             offsets.reset()  # no offset, no move: nothing booked may outlive them
             return
         tracking = bool(state.tracking and state.tracking.on)
-        if self.motion is not None or self.moves or not tracking or not offsets.active:
+        if self._moving() or not tracking or not offsets.active:
             offsets.reset()  # a slew or a stop starts the offset path afresh from where it ends
-            if drifting and self.motion is None and not self.moves:
+            if drifting and not self._moving():
                 for axis in own:
                     self._drift(axis, 0.0)
             return
         if state.altaz:
-            self._tick_altaz_offsets(now, own)
+            self._tick_altaz(now, own)
             return
         guide = guide_speed_arcsec(state.guide_rate)
         for axis in own:
@@ -226,36 +125,37 @@ class OffsetsMixin:
                 self._drift(axis, wanted)
         if offsets.due(now):
             offsets.accrue(now)
-            self._pay_offsets(now, guide)
+            self._pay(now, guide)
 
-    def _pay_offsets(self, now: float, guide: float) -> None:
+    def _pay(self, now: float, guide: float) -> None:
         """One cycle: the owed displacement of each pulse-paid axis becomes a guide pulse."""
-        offsets = self.offsets
-        generation = self.generation
+        offsets = self._ledger
+        generation = self._stops.value
         for axis in (0, 1):
             if not by_pulses(offsets.axes[axis].rate, guide):
                 offsets.axes[axis].owed = 0.0  # paid by the move
                 continue
-            if axis in self.pulses or offsets.axes[axis].pulse_end > now:
+            if axis in self._guiding.pulses or offsets.axes[axis].pulse_end > now:
                 continue  # a client pulse (or the last offset pulse) is running there
             pulse = offsets.next_pulse(axis, guide)
             if pulse is None:
                 continue
             direction, ms = pulse
             try:
-                end = self._guide_pulse(direction, min(ms, PULSE_CHUNK_MS), guard=self._guard(generation))
+                end = self._guiding.guide_pulse(direction, min(ms, PULSE_CHUNK_MS),
+                                                guard=self._stops.guard(generation))
             except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
                 log.debug("rate offset pulse not sent: %s", exc)
                 offsets.axes[axis].owed += ms / 1000.0 * guide * direction_sign(direction)
                 continue
             offsets.sent(axis, now, end, ms, direction, guide)
 
-    def _tick_altaz_offsets(self, now: float, own: list[int]) -> None:
+    def _tick_altaz(self, now: float, own: list[int]) -> None:
         """Alt-az: once a cycle, set each free axis's offset move for the next cycle."""
-        if self.offsets.due(now):
-            self.offsets.accrue(now)
+        if self._ledger.due(now):
+            self._ledger.accrue(now)
             for axis in own:
-                if axis not in self.pulses:
+                if axis not in self._guiding.pulses:
                     self._modulate(axis, now)
 
     def _modulate(self, axis: int, now: float) -> None:
@@ -264,9 +164,9 @@ class OffsetsMixin:
         the rate (a sigma-delta modulator): the pointing stays within a step x a cycle (0.08″) of the
         ideal path, and a command's timing error counts only at the change of speed (0.15″/s), not at
         the whole speed as it would for a pulse that starts and stops."""
-        offset = self.offsets.axes[axis]
-        with self._timed_lock:
-            if axis in self.timed_moves:
+        offset = self._ledger.axes[axis]
+        with self._guiding.timed_lock:
+            if axis in self._guiding.timed_moves:
                 return  # a client pulse has the axis
             offset.book_drift(now)
             wanted = offset.rate + offset.owed / CYCLE_S
@@ -283,8 +183,7 @@ class OffsetsMixin:
     def _drift(self, axis: int, rate_deg_s: float, exact_start: bool = True) -> float | None:
         """Set an offset move (Mount.drift); when its command was written (mount time), or None if not."""
         try:
-            return self.mount.drift(axis, rate_deg_s, guard=self._guard(self.generation), exact_start=exact_start)
+            return self.mount.drift(axis, rate_deg_s, guard=self._stops.guard(), exact_start=exact_start)
         except (LinkError, ProtocolError, MountReplyError, MotionCancelled) as exc:
             log.warning("rate offset move on axis %d not changed: %s", axis, exc)
             return None
-

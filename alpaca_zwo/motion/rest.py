@@ -10,18 +10,15 @@ from __future__ import annotations
 import itertools
 import logging
 from collections import deque
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from ..mount.operations import Mount
 from ..mount.state import MountState
 from ..sky import SIDEREAL_HOURS_PER_S
-from .kinds import MAX_AXIS_DEG_S, _wrap12
+from .kinds import MAX_AXIS_DEG_S, Motion, _wrap12
 
 log = logging.getLogger(__name__)
-
-if TYPE_CHECKING:
-    from .kinds import ManualMove, Motion
 
 #: Rest: consecutive readings within these of each other in the frame the mount holds still.
 REST_RA_S = 1.5  # seconds of RA: the mount prints whole seconds
@@ -51,28 +48,32 @@ def _stable(a: Reading, b: Reading) -> bool:
     return abs(d_ra_deg) <= REST_RA_S * 15.0 / 3600.0 and abs(d_dec) <= REST_DEC_ARCSEC / 3600.0
 
 
-class RestMixin:
-    """Keeps the recent readings and decides rest (mixed into MotionSupervisor)."""
+class RestDetector:
+    """Keeps the recent readings and decides rest.
 
-    mount: Mount
-    moves: dict[int, ManualMove]
-    _readings: deque[Reading]
+    Owns ``readings`` (the last 8, appended by the supervisor loop); no lock: a stop reads the
+    last two for its braking estimate while the loop may append (a deque's single operations are atomic)."""
 
-    def _record_reading(self, state: MountState) -> None:
+    def __init__(self, *, mount: Mount) -> None:
+        self.mount = mount
+        self.readings: deque[Reading] = deque(maxlen=8)
+
+    def record(self, state: MountState) -> None:
+        """Keep the newest reading of ``state``, if it is new."""
         if state.raw_ra is None or state.raw_dec is None or state.position_time is None:
             return
-        if self._readings and self._readings[-1].t >= state.position_time:
+        if self.readings and self.readings[-1].t >= state.position_time:
             return
         tracking = bool(state.tracking and state.tracking.on)
-        self._readings.append(Reading(state.position_time, state.raw_ra, state.raw_dec, tracking))
+        self.readings.append(Reading(state.position_time, state.raw_ra, state.raw_dec, tracking))
 
-    def _at_rest(self, motion: Motion, now: float) -> bool:
+    def at_rest(self, motion: Motion, now: float) -> bool:
         """Readings after ``rest_from`` stable in the frame the mount holds still, and the
         predicted braking time over. Asks for fresh readings while it waits."""
         if now < motion.rest_from + motion.brake_s:
             self.mount.refresh()
             return False
-        recent = [r for r in self._readings if r.t > motion.rest_from]
+        recent = [r for r in self.readings if r.t > motion.rest_from]
         if len(recent) < REST_READINGS:
             self.mount.refresh()
             return False
@@ -82,11 +83,11 @@ class RestMixin:
         self.mount.refresh()
         return False
 
-    def _speed_estimate(self) -> float:
-        """Fastest axis speed (deg/s) seen in the last two readings, or of the manual moves."""
-        speeds = [abs(m.rate) for m in self.moves.values()]
-        if len(self._readings) >= 2:
-            a, b = self._readings[-2], self._readings[-1]
+    def speed_estimate(self, rates: Iterable[float]) -> float:
+        """Fastest axis speed (deg/s) seen in the last two readings, or of the manual moves' ``rates``."""
+        speeds = [abs(rate) for rate in rates]
+        if len(self.readings) >= 2:
+            a, b = self.readings[-2], self.readings[-1]
             dt = b.t - a.t
             if dt > 0:
                 d_ra, d_dec = _displacement(a, b)

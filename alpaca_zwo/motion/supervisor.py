@@ -5,16 +5,31 @@ horizon and meridian limits and the shutdown stop all live here, so every progra
 mount (Alpaca, the bridges, the setup page) gets the same rules, and a stop from any of them stops
 motion started by any other. ``Telescope`` maps Alpaca members onto this; bytes live in ``mount``.
 
+The supervisor owns small parts, each with its own state, built in ``__init__`` and handed what
+they use by keyword (none reaches back into the supervisor): ``rest`` (RestDetector, the readings),
+``limits`` (Limits, the braking-aware rules), ``guiding`` (Guiding: client pulses and alt-az timed
+moves), ``payer`` (OffsetPayer: rate offsets, paid from the ledger ``offsets`` the supervisor owns,
+``balance.py``), ``lander`` (Lander: landing exactly where asked), and ``stops`` (Generation, the
+stop generation every command's guard reads, ``kinds.py``).
+
 Lock rules (the reason this module exists):
 
-- ``_start_lock`` serialises motion *starts* (GOTO, MoveAxis, home, park, pulses). It may be held
-  across serial I/O and waits. **Stop paths never take it.**
-- ``_lock`` guards this object's fields. It is never held across I/O or a wait.
-- ``_timed_lock`` makes starting or ending one alt-az timed pulse (``guiding.py``), and one speed
-  change of an alt-az offset move with its booking (``offsets.py``), a single step; it is held
+- ``MotionSupervisor._start_lock`` serialises motion *starts* (GOTO, MoveAxis, home, park, pulses).
+  It may be held across serial I/O and waits. **Stop paths never take it.**
+- ``MotionSupervisor._lock`` guards the supervisor's fields (``motion``, ``moves``, ``parked``) and
+  every ``stops.bump()``. It is never held across I/O or a wait.
+- ``Guiding._lock`` guards the pulse and timed-move dicts; never held across I/O.
+- ``Guiding.timed_lock`` makes starting or ending one alt-az timed pulse (``guiding.py``), and one
+  speed change of an alt-az offset move with its booking (``offsets.py``), a single step; it is held
   across that one move command, never by ``abort`` (whose ``:Q#`` ends every move anyway). A
   client's new rate offset takes it too, so it never lands between a speed change and its booking.
-- The link's write lock is held only for one ``write``. A stop bumps :attr:`generation` under
+- Order: supervisor ``_lock`` -> ``Guiding._lock``, never the reverse; ``Guiding.timed_lock`` ->
+  ``Guiding._lock``; ``_start_lock`` -> ``timed_lock`` (a client pulse). Stops take neither
+  ``_start_lock`` nor ``timed_lock``. A client pulse registers only if the generation is still the
+  one it was started under (checked under ``Guiding._lock``), and an abort bumps the generation
+  before it makes Guiding forget its pulses (under ``Guiding._lock``): so a pulse racing an abort
+  is either forgotten by it or never registered.
+- The link's write lock is held only for one ``write``. A stop bumps the generation under
   ``_lock`` and then writes its reply-less ``:Q#`` through the link's urgent lane; every motion
   command carries a guard ("generation unchanged") that the link checks under its write lock right
   before writing. So a motion racing a stop is either never written or written before the stop:
@@ -27,8 +42,8 @@ RA/Dec while tracking, HA/Dec when not) *and* the braking time predicted from it
 passed. Slewing stays true until then.
 
 Guide pulses (and the alt-az timed moves that stand in for them) live in ``guiding.py``; landing
-exactly where asked in ``landing.py``; rate offsets in ``offsets.py``; rest detection in ``rest.py``;
-braking-aware limits in ``limits.py``.
+exactly where asked in ``landing.py``; rate offsets in ``offsets.py`` (their ledger in
+``balance.py``); rest detection in ``rest.py``; braking-aware limits in ``limits.py``.
 """
 
 from __future__ import annotations
@@ -36,7 +51,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 
 from .. import sky
@@ -59,25 +73,27 @@ from ..clients import ClientKey, ClientRegistry
 from ..config.settings import Settings
 from ..mount.operations import Mount
 from ..mount.state import MountState
-from .guiding import GuidingMixin, TimedMove
+from ..zwo.wire_values import Direction
+from .balance import CYCLE_S, RateOffsets
+from .guiding import Guiding
 from .kinds import (
     DECELERATION_DEG_S2,
     INTERRUPTIONS,
     MAX_MOTION_S,
     STATUS_LAG_S,
     TICK_S,
+    Generation,
     Landing,
     ManualMove,
     Motion,
     MotionKind,
     Phase,
-    Pulse,
     _wrap12,
 )
-from .landing import LANDING_MARGIN_S, SLEW_S_FIXED, SLEW_S_PER_DEG, LandingMixin
-from .limits import LimitsMixin
-from .offsets import CYCLE_S, OffsetsMixin, RateOffsets
-from .rest import Reading, RestMixin
+from .landing import LANDING_MARGIN_S, SLEW_S_FIXED, SLEW_S_PER_DEG, Lander
+from .limits import Limits
+from .offsets import OffsetPayer
+from .rest import RestDetector
 
 log = logging.getLogger(__name__)
 
@@ -89,9 +105,13 @@ BRAKED_RETRY_S = 0.2
 BRAKED_WITHIN_S = 4.0
 
 
+class MotionSupervisor:
+    """Starts, watches, lands and stops every motion of one mount (see the module docstring).
 
-class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, RestMixin):
-    """Starts, watches, lands and stops every motion of one mount (see the module docstring)."""
+    Creates and owns ``_start_lock`` (starts; may be held across I/O, never by stops), ``_lock``
+    (``motion``, ``moves``, ``parked`` and every generation bump; never across I/O or a wait) and
+    ``_wake`` (the loop's wake-up). Owns the ledger ``offsets`` and the generation ``stops``, and
+    lends them to its parts."""
 
     def __init__(
         self,
@@ -108,17 +128,20 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         self.registry = registry
         self._start_lock = threading.Lock()
         self._lock = threading.Lock()
-        self._timed_lock = threading.Lock()
         self._wake = threading.Condition()
-        self.generation = 0
+        self.stops = Generation()
         self.motion: Motion | None = None
         self.moves: dict[int, ManualMove] = {}
-        self.pulses: dict[int, Pulse] = {}
-        self.timed_moves: dict[int, TimedMove] = {}  # alt-az pulse moves (guiding.py)
         self.settle_s = 0.0
         self.parked = False
         self.offsets = RateOffsets()
-        self._readings: deque[Reading] = deque(maxlen=8)
+        self.rest = RestDetector(mount=mount)
+        self.limits = Limits(mount=mount, settings=settings, lst=lst)
+        self.guiding = Guiding(mount=mount, ledger=self.offsets, stops=self.stops, notify=self._notify,
+                               safety_stop=self.safety_stop)
+        self.payer = OffsetPayer(mount=mount, ledger=self.offsets, guiding=self.guiding, stops=self.stops,
+                                 moving=self._moving)
+        self.lander = Lander(mount=mount, lst=lst, guiding=self.guiding, rest=self.rest, stops=self.stops)
         self._stop_pending = ""  # why a safety stop is still owed to the mount ('' = none)
         self._stopped = threading.Event()
         registry.protect(self.move_owners)  # the watchdog needs every owner's last-seen time
@@ -127,13 +150,22 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
 
     # -- read-outs ---------------------------------------------------------------------------
 
+    @property
+    def generation(self) -> int:
+        """The stop generation now (read-only; ``stops`` bumps it)."""
+        return self.stops.value
+
+    def _moving(self) -> bool:
+        """A motion of ours (slew, home, park, stop) or a manual move runs: offsets start afresh after it."""
+        return self.motion is not None or bool(self.moves)
+
     def slewing(self, state: MountState | None = None) -> bool:
         """Our motions until the mount is at rest, manual moves, and any GOTO the mount reports."""
         state = state or self.mount.state
         return self.motion is not None or bool(self.moves) or bool(state.moving_axes) or state.goto_running
 
     def pulse_guiding(self) -> bool:
-        return bool(self.pulses)
+        return bool(self.guiding.pulses)
 
     def stopping(self) -> bool:
         """Only a stop the server is finishing (axes braking to rest): a new GOTO is queued behind
@@ -152,13 +184,12 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         :Q# on the urgent lane, and keep Slewing true until the readings show the mount at rest."""
         state = self.mount.state
         with self._lock:
-            self.generation += 1
+            self.stops.bump()
             previous = self.motion
-            speed = self._speed_estimate()
+            speed = self.rest.speed_estimate([move.rate for move in self.moves.values()])
             moving = previous is not None or self.moves or state.moving_axes or state.goto_running
             self.moves.clear()
-            self.pulses.clear()
-            self.timed_moves.clear()  # :Q# stops them with everything else
+            self.guiding.forget()  # :Q# stops pulses and timed moves with everything else
             self.offsets.reset()
             self.motion = self._stopping(speed, previous) if moving else None
         try:
@@ -174,7 +205,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
     def _stopping(self, speed: float, previous: Motion | None) -> Motion:
         """A STOP motion that lasts until the mount is at rest (callers hold ``_lock``)."""
         now = self.mount.monotonic()
-        motion = Motion(MotionKind.STOP, self.generation, now, Phase.SETTLING, rest_from=now,
+        motion = Motion(MotionKind.STOP, self.stops.value, now, Phase.SETTLING, rest_from=now,
                         brake_s=speed / DECELERATION_DEG_S2)
         if previous is not None:
             previous.error = previous.error or "stopped"
@@ -185,9 +216,10 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         """MoveAxis(axis, 0) and the watchdog: stop one axis on the urgent lane."""
         with self._lock:
             move = self.moves.pop(axis, None)
-            self.generation += 1
+            self.stops.bump()
             if not self.moves and (self.motion is None or self.motion.kind is MotionKind.MOVE):
-                speed = max(abs(move.rate) if move else 0.0, self._speed_estimate())
+                speed = max(abs(move.rate) if move else 0.0,
+                            self.rest.speed_estimate([m.rate for m in self.moves.values()]))
                 self.motion = self._stopping(speed, self.motion)
         try:
             self.mount.move_axis(axis, 0.0)
@@ -200,13 +232,11 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
 
     def stop_manual(self, why: str) -> None:
         """Stop manual moves and pulses (last client gone, server shutting down)."""
-        if not self.moves and not self.mount.state.moving_axes and not self.pulses and not self.timed_moves:
+        if not self.moves and not self.mount.state.moving_axes and not self.guiding.busy:
             return
         log.warning("stopping manual motion: %s", why)
-        with self._lock:
-            self.pulses.clear()
-        for axis in list(self.timed_moves):
-            self._end_timed_move(axis)
+        self.guiding.forget_pulses()
+        self.guiding.end_all()
         for axis in (0, 1):
             if axis in self.moves or axis in self.mount.state.moving_axes:
                 self.stop_axis(axis, "")
@@ -216,8 +246,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         try:
             self.mount.stop()
             self._stop_pending = ""
-            with self._lock:
-                self.timed_moves.clear()
+            self.guiding.forget_timed_moves()
             log.warning("mount stopped: %s", why)
         except (LinkError, ProtocolError) as exc:
             if not self._stop_pending:
@@ -225,9 +254,6 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             self._stop_pending = why
 
     # -- starts ------------------------------------------------------------------------------
-
-    def _guard(self, generation: int) -> Callable[[], bool]:
-        return lambda: self.generation == generation
 
     def _begin(self, kind: MotionKind) -> Motion:
         """Replace whatever moves now by a new motion (callers hold ``_start_lock``).
@@ -237,8 +263,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         an abort meanwhile ends it like any motion and this start raises."""
         state = self.mount.state
         with self._lock:
-            self.generation += 1
-            generation = self.generation
+            generation = self.stops.bump()
             busy = (self.motion is not None or bool(self.moves) or bool(state.moving_axes)
                     or state.goto_running or any(self.mount.drift_rates))
             motion = Motion(kind, generation, self.mount.monotonic(), Phase.QUEUED, queued=busy)
@@ -253,7 +278,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             self._withdraw(motion)
             raise
         with self._lock:
-            if self.generation != generation:
+            if self.stops.value != generation:
                 motion.done.set()
                 raise InvalidOperation(f"{kind.value} cancelled: a stop arrived while it was starting")
             motion.started = self.mount.monotonic()
@@ -279,7 +304,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         since = self.mount.monotonic()
         self.mount.refresh()
         idle = self.mount.wait_for(
-            lambda s: self.generation != generation
+            lambda s: self.stops.value != generation
             or (s.status_time is not None and s.status_time > since and not s.goto_running),
             timeout=10.0,
         )
@@ -312,15 +337,13 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             lst = self._lst()
             distance = 0.0 if here is None else sky.angular_separation(
                 sky.ra_from_hour_angle(lst, ha), dec, *here)
-            lead = SLEW_S_FIXED + distance * SLEW_S_PER_DEG + LANDING_MARGIN_S + self._see_arrival(landing)
-            ra = self._aim(landing, lead)
+            lead = SLEW_S_FIXED + distance * SLEW_S_PER_DEG + LANDING_MARGIN_S + self.lander.see_arrival(landing)
+            ra = self.lander.aim(landing, lead)
             self._send_goto(motion, ra, dec)
         return motion
 
-
-
     def _send_goto(self, motion: Motion, ra: float, dec: float) -> None:
-        guard = self._guard(motion.generation)
+        guard = self.stops.guard(motion.generation)
         try:
             wire = self._goto_when_braked(motion, ra, dec, guard)
         except (LinkTimeout, AmbiguousReply) as exc:
@@ -354,7 +377,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         with self._start_lock:
             motion = self._begin(kind)
             try:
-                self.mount.home(guard=self._guard(motion.generation))
+                self.mount.home(guard=self.stops.guard(motion.generation))
             except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:
                 raise self._fail(motion, kind.value, exc) from exc
         self._notify()
@@ -369,13 +392,13 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             motion = self.motion
             if motion is not None and motion.kind not in (MotionKind.MOVE, MotionKind.STOP):
                 raise InvalidOperation(f"a {motion.kind.value} is in progress; abort it first")
-            self._check_move_allowed(axis, rate)
+            self.limits.check_move(axis, rate)
             with self._lock:
-                generation = self.generation
+                generation = self.stops.value
                 if motion is None or motion.kind is MotionKind.STOP:
                     self.motion = Motion(MotionKind.MOVE, generation, self.mount.monotonic())
             try:
-                self.mount.move_axis(axis, rate, guard=self._guard(generation))
+                self.mount.move_axis(axis, rate, guard=self.stops.guard(generation))
             except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:
                 with self._lock:
                     if not self.moves and self.motion is not None and self.motion.kind is MotionKind.MOVE:
@@ -397,6 +420,23 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         if motion.error:
             raise DriverError(f"the {motion.kind.value} failed: {motion.error}", ERR_LINK)
 
+    # -- guide pulses and rate offsets (guiding.py, offsets.py) --------------------------------
+
+    def pulse(self, direction: Direction, duration_ms: int) -> None:
+        """Start a guide pulse of any length (sent in chunks the mount accepts)."""
+        if self.motion is not None and self.motion.kind is not MotionKind.STOP:
+            raise InvalidOperation(f"cannot pulse guide during a {self.motion.kind.value}")
+        if duration_ms == 0:
+            return
+        chunk = self.guiding.first_chunk_ms(duration_ms)
+        with self._start_lock:
+            self.guiding.start(direction, duration_ms, chunk)
+        self._notify()
+
+    def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
+        """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east)."""
+        self.payer.set_rate(axis, arcsec_per_s)
+        self._notify()
 
     # -- the supervisor thread -----------------------------------------------------------------
 
@@ -426,11 +466,10 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         a landing or an offset pulse is due), IDLE_TICK_S when nothing is: every start notifies."""
         now = self.mount.monotonic()
         rate = self.mount.clock_rate
-        busy = (self.motion is not None or self.moves or self.pulses or self.timed_moves or self.offsets.active
+        busy = (self.motion is not None or self.moves or self.guiding.busy or self.offsets.active
                 or self._stop_pending)
         delays = [TICK_S if busy else IDLE_TICK_S]
-        delays.extend(max(0.0, pulse.chunk_end - now) / rate for pulse in self.pulses.values())
-        delays.extend(max(0.0, move.end - now) / rate for move in self.timed_moves.values())
+        delays.extend(self.guiding.wake_delays(now, rate))
         motion = self.motion
         landing = motion.landing if motion is not None and motion.phase is Phase.LANDING else None
         if landing is not None and landing.t_star is not None:
@@ -445,15 +484,13 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         if self._stop_pending:
             self.safety_stop(self._stop_pending)
         state = self.mount.state
-        self._record_reading(state)
+        self.rest.record(state)
         now = self.mount.monotonic()
-        self._tick_pulses(now)
-        self._tick_timed_moves(now)
-        self._tick_offsets(now, state)
+        self.guiding.tick(now)
+        self.payer.tick(now, state)
         self._tick_motion(now, state)
         self._tick_watchdog()
         self._tick_limits(state)
-
 
     # -- motion phases -------------------------------------------------------------------------
 
@@ -476,13 +513,18 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
         elif motion.phase is Phase.SETTLING:
             if motion.kind is MotionKind.MOVE:
                 return  # manual moves settle through their STOP motion
-            if self._at_rest(motion, now):
+            if self.rest.at_rest(motion, now):
                 motion.at_rest = now
                 motion.phase = Phase.SETTLE_TIME
         settle_s = 0.0 if motion.kind is MotionKind.STOP else self.settle_s
         settled = motion.at_rest is not None and now - motion.at_rest >= settle_s
         if motion.phase is Phase.SETTLE_TIME and settled:
             self._finish(motion)
+
+    def _tick_landing(self, motion: Motion, now: float) -> None:
+        at_rest = self.lander.tick(motion, now)
+        if at_rest is not None:  # a tracked slew ended at t* already at rest: its settle time runs from there
+            self._tick_motion(at_rest, self.mount.state)
 
     def _tick_moving(self, motion: Motion, now: float, state: MountState) -> None:
         if motion.kind is MotionKind.MOVE:
@@ -494,17 +536,7 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             return
         if not motion.saw_busy and state.status_time - motion.started < STATUS_LAG_S:
             return  # the flags may still show the state from before the command
-        self._arrived(motion, now)
-
-
-
-
-
-
-    def _settle(self, motion: Motion, now: float) -> None:
-        motion.phase = Phase.SETTLING
-        motion.rest_from = max(motion.rest_from, now)
-        self.mount.refresh()
+        self.lander.arrived(motion, now)
 
     def _finish(self, motion: Motion) -> None:
         with self._lock:
@@ -517,10 +549,6 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             self.motion = None
         motion.done.set()
         self._notify()
-
-    # -- rest ----------------------------------------------------------------------------------
-
-
 
     # -- watchdog and limits -------------------------------------------------------------------
 
@@ -537,5 +565,13 @@ class MotionSupervisor(GuidingMixin, LandingMixin, LimitsMixin, OffsetsMixin, Re
             elif now - seen > limit:
                 self.stop_axis(axis, f"client {move.owner} went silent for {now - seen:.0f} s during MoveAxis")
 
-
-
+    def _tick_limits(self, state: MountState) -> None:
+        """Stop a manual move before it reaches the horizon, minimum altitude or meridian limit:
+        where it would come to rest if stopped now (braking distance plus reaction time)."""
+        if not self.moves:
+            return
+        moves = {axis: move.rate for axis, move in self.moves.items()}
+        reason = self.limits.reached(moves, state)
+        if reason:
+            for axis in list(self.moves):
+                self.stop_axis(axis, f"manual move stopped before the {reason}")

@@ -231,9 +231,9 @@ def test_rates_zeroed_during_a_speed_change_leave_nothing_owed_to_the_next_offse
     rig.scope.RightAscensionRate = -40.0 / 15.0 / 1.00273790935  # -40″/s = 265.9 steps: 266 and 265 alternate
     _wait_mount_seconds(rig, 2.0)
     emulator.server.faults.stall(400)  # the poll in flight waits for its reply, and the speed change behind it
-    wait_until(supervisor._timed_lock.locked, 5, "a speed change waiting on the stalled line", interval=0.001)
+    wait_until(supervisor.guiding.timed_lock.locked, 5, "a speed change waiting on the stalled line", interval=0.001)
     rig.scope.RightAscensionRate = 0.0
-    wait_until(lambda: not supervisor._timed_lock.locked(), 5, "the speed change to be written", interval=0.001)
+    wait_until(lambda: not supervisor.guiding.timed_lock.locked(), 5, "the speed change to be written", interval=0.001)
     rig.scope.SlewToCoordinatesAsync(_ra_at_ha(rig.scope, -2.5), 30.0)
     rig.wait_slew("the slew to end")
     before, t0 = rig.model.position(), rig.mount_seconds()
