@@ -79,10 +79,13 @@ class Guiding:
         return bool(self.pulses) or bool(self.timed_moves)
 
     def wake_delays(self, now: float, rate: float) -> list[float]:
-        """Real seconds until each pulse chunk and each timed move is due (``rate``: mount clock rate)."""
-        delays = [max(0.0, pulse.chunk_end - now) / rate for pulse in self.pulses.values()]
-        delays.extend(max(0.0, move.end - now) / rate for move in self.timed_moves.values())
-        return delays
+        """Real seconds until each pulse chunk and each timed move is due (``rate``: mount clock rate).
+
+        Copies both dicts under ``_lock``: a client's pulse registering meanwhile must not change their
+        size mid-iteration, which would raise in the supervisor's thread and end its watchdog and limits."""
+        with self._lock:
+            pulses, moves = list(self.pulses.values()), list(self.timed_moves.values())
+        return [max(0.0, p.chunk_end - now) / rate for p in pulses] + [max(0.0, m.end - now) / rate for m in moves]
 
     # -- one pulse, as the mount can make it -----------------------------------------------------
 

@@ -452,8 +452,13 @@ class MotionSupervisor:
 
     def _run(self) -> None:
         while not self._stopped.is_set():
+            try:
+                wait_s = self._next_wake()
+            except Exception:  # as below: a bug here must not end the watchdog and the limits
+                log.exception("motion supervisor error (next wake-up)")
+                wait_s = TICK_S
             with self._wake:
-                self._wake.wait(self._next_wake())
+                self._wake.wait(wait_s)
             if self._stopped.is_set():
                 return
             try:
@@ -570,7 +575,7 @@ class MotionSupervisor:
         where it would come to rest if stopped now (braking distance plus reaction time)."""
         if not self.moves:
             return
-        moves = {axis: move.rate for axis, move in self.moves.items()}
+        moves = {axis: move.rate for axis, move in list(self.moves.items())}  # a client may start one now
         reason = self.limits.reached(moves, state)
         if reason:
             for axis in list(self.moves):
