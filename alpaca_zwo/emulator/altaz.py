@@ -27,11 +27,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 from .. import sky
 from ..sky import SIDEREAL_DEG_S
 from ..zwo.wire_values import MountMode
-from .state import DEC, RA, ModelBase, Slew, ramp
+from .clocksite import ClockAndSite
+from .flash import FlashSettings
+from .state import DEC, RA, Slew, ramp
 
 #: Undisturbed tracking time after which a zenith transit takes the altitude over the top (mount s).
 SETTLED_S = 10.0
@@ -123,23 +126,38 @@ def follow_sky(
         pos[DEC], vel[DEC] = 90.0, 0.0
 
 
-class AltAzRules(ModelBase):
-    """The alt-az parts of the model's commands (mixed into ``MountModel``; callers hold the lock)."""
+class Axes(Protocol):
+    """What the rules read of the mechanics (``physics.Mechanics``, declared here so this module,
+    which the mechanics import, does not import them back)."""
 
-    def _altaz_goto(self, raw_ha: float, raw_dec: float) -> AltAzSlew:
+    t: float
+    pos: list[float]
+
+
+class AltAzRules:
+    """The alt-az parts of the model's commands. Stateless: it reads the axes, the site and the mode
+    in effect. Lock: none; callers hold ``MountModel._lock`` (the model's one lock)."""
+
+    def __init__(self, *, mechanics: Axes, site: ClockAndSite, flash: FlashSettings) -> None:
+        self._mechanics = mechanics
+        self._site = site
+        self._flash = flash
+
+    def goto(self, raw_ha: float, raw_dec: float) -> AltAzSlew:
         """An alt-az GOTO: no pier side; the azimuth axis takes the short way round."""
-        _, az = sky.equatorial_to_horizontal(raw_ha, raw_dec, self._latitude)
-        az_ref = self._pos[RA] + ((az - self._pos[RA] + 180.0) % 360.0 - 180.0)
-        return AltAzSlew("goto", self._t, raw_ha * 15.0, SIDEREAL_DEG_S, raw_dec, sky.PierSide.WEST,
-                         latitude=self._latitude, az_ref=az_ref)
+        latitude, p = self._site.latitude_deg, self._mechanics.pos[RA]
+        _, az = sky.equatorial_to_horizontal(raw_ha, raw_dec, latitude)
+        az_ref = p + ((az - p + 180.0) % 360.0 - 180.0)
+        return AltAzSlew("goto", self._mechanics.t, raw_ha * 15.0, SIDEREAL_DEG_S, raw_dec, sky.PierSide.WEST,
+                         latitude=latitude, az_ref=az_ref)
 
-    def _altaz_tracking_refusal(self) -> int | None:
+    def tracking_refusal(self) -> int | None:
         """Why alt-az tracking cannot start: 7 time and site not set (field notes §2.4, §4.1), 10 the
         altitude carried over the zenith; None in EQ mode or when it can."""
-        if self._mode is not MountMode.ALTAZ:
+        if self._flash.mode_in_effect is not MountMode.ALTAZ:
             return None
-        if not self._initialized():
+        if not self._site.initialized():
             return 7
-        if self._pos[DEC] > 90.0 + 1e-9:
+        if self._mechanics.pos[DEC] > 90.0 + 1e-9:
             return 10
         return None

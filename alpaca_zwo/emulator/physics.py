@@ -11,8 +11,11 @@ import math
 
 from .. import sky
 from ..sky import LUNAR_DEG_S, SIDEREAL_DEG_S, SOLAR_DEG_S
-from ..zwo.wire_values import MountMode
+from ..zwo.wire_values import SLEW_SPEEDS, MountMode
 from .altaz import SETTLED_S, axes_to_ha_dec_altaz, follow_sky
+from .clock import Clock
+from .clocksite import ClockAndSite
+from .flash import FlashSettings
 from .state import (
     AT_HOME_DEG,
     DEC,
@@ -22,140 +25,212 @@ from .state import (
     SLEW_STEP_S,
     SNAP_DEG,
     STEADY_STEP_S,
-    ModelBase,
+    Pulse,
     Slew,
     axes_to_ha_dec,
     ramp,
 )
 
 
-class Mechanics(ModelBase):
-    """The axes and their motion; callers hold the lock."""
+class Mechanics:
+    """The physics of the mount: the two axes and what drives them (slews, braking, moves, pulses,
+    tracking), the target and alignment offsets, and the home bookkeeping. All of it is volatile
+    (``power_up`` resets it); the attributes are read and written by ``MountModel``'s commands.
 
-    def _advance(self) -> None:
-        """Integrate the physics up to the clock's present (callers hold the lock)."""
+    Lock: none of its own. Callers hold ``MountModel._lock`` (the model's one lock) for every call
+    and every attribute access. It reads the mode in effect, top speed and meridian setting from
+    ``flash``, the latitude and sidereal time from ``site``; it never calls back into the model.
+    """
+
+    t: float  # emulated seconds the physics has been advanced to
+    pos: list[float]  # (primary, secondary) axis angles, degrees
+    vel: list[float]  # their velocities, deg/s
+    last_side: sky.PierSide
+    slew: Slew | None
+    braking_until: float  # emulated time a slew stopped by :Q# ends braking (GOTO state held till then)
+    moves: list[float | None]  # manual moves per axis, deg/s
+    pulses: list[Pulse | None]
+    speed: float  # the latched :Rn#/:Rv# speed, multiples of sidereal
+    disturbed_t: float  # when a slew, move or untracked motion last ran (alt-az zenith rule)
+    axis_speed: list[float | None]  # per-axis :Rvr#/:Rvd# speeds, overriding ``speed``
+    tracking: bool
+    track_rate: str  # one of state.TRACK_RATES
+    custom_multiple: float
+    track_error: int | None  # why tracking stopped by itself (the :GAT# code)
+    target_ra: float
+    target_dec: float
+    offset_ra: float  # hours, from syncs
+    offset_dec: float  # degrees, from syncs
+    alignment_points: int
+    homed: bool  # a home slew completed since power-up
+    home_flag: bool  # 'H' latch of the after_home variant
+
+    def __init__(self, *, clock: Clock, accel: float, flash: FlashSettings, site: ClockAndSite, t: float) -> None:
+        """``accel``: each axis's acceleration, deg/s²; ``t``: the emulated seconds it powers up at."""
+        self._clock = clock
+        self._accel = accel
+        self._flash = flash
+        self._site = site
+        self.t = t
+        self.power_up()
+
+    def power_up(self) -> None:
+        """At home, still, not tracking, no target, offsets or alignment (flash settings are not here)."""
+        self.pos = [HOME_P, HOME_S]
+        self.vel = [0.0, 0.0]
+        self.last_side = sky.PierSide.WEST
+        self.slew = None
+        self.braking_until = self.t
+        self.moves = [None, None]
+        self.pulses = [None, None]
+        self.speed = SLEW_SPEEDS[9]
+        self.disturbed_t = self.t
+        self.axis_speed = [None, None]
+        self.tracking = False
+        self.track_rate = "sidereal"
+        self.custom_multiple = 1.0
+        self.track_error = None
+        self.target_ra = 0.0
+        self.target_dec = 0.0
+        self.offset_ra = 0.0
+        self.offset_dec = 0.0
+        self.alignment_points = 0
+        self.homed = False
+        self.home_flag = False
+
+    def advance(self) -> float:
+        """Integrate the physics up to the clock's present; the emulated seconds reached."""
         now = self._clock.seconds()
-        while now - self._t > 1e-12:
-            if self._at_rest():
-                self._t = now  # nothing moves and nothing can start by itself: one jump
+        while now - self.t > 1e-12:
+            if self.at_rest():
+                self.t = now  # nothing moves and nothing can start by itself: one jump
                 break
-            dt = min(now - self._t, SLEW_STEP_S if self._slew is not None else STEADY_STEP_S)
-            for pulse in self._pulses:
-                if pulse is not None and pulse.end - self._t > 1e-12:
-                    dt = min(dt, pulse.end - self._t)
-            if self._slew is None:
+            dt = min(now - self.t, SLEW_STEP_S if self.slew is not None else STEADY_STEP_S)
+            for pulse in self.pulses:
+                if pulse is not None and pulse.end - self.t > 1e-12:
+                    dt = min(dt, pulse.end - self.t)
+            if self.slew is None:
                 dt = self._until_meridian(dt)
             self._step(dt)
-            self._t += dt
-            for axis, pulse in enumerate(self._pulses):
-                if pulse is not None and pulse.end - self._t <= 1e-9:
-                    self._pulses[axis] = None
+            self.t += dt
+            for axis, pulse in enumerate(self.pulses):
+                if pulse is not None and pulse.end - self.t <= 1e-9:
+                    self.pulses[axis] = None
+        return self.t
 
-    def _at_rest(self) -> bool:
+    def at_rest(self) -> bool:
         return (
-            self._slew is None
-            and not self._tracking
-            and self._vel[RA] == 0.0
-            and self._vel[DEC] == 0.0
-            and self._moves == [None, None]
-            and self._pulses == [None, None]
+            self.slew is None
+            and not self.tracking
+            and self.vel[RA] == 0.0
+            and self.vel[DEC] == 0.0
+            and self.moves == [None, None]
+            and self.pulses == [None, None]
         )
 
-    def _altaz(self) -> bool:
-        return self._mode is MountMode.ALTAZ
+    def altaz(self) -> bool:
+        return self._flash.mode_in_effect is MountMode.ALTAZ
 
     def _until_meridian(self, dt: float) -> float:
         """Shorten a steady tracking step so the meridian stop happens where it should."""
-        if not self._tracking or self._altaz():  # an alt-az mount has no meridian limit
+        if not self.tracking or self.altaz():  # an alt-az mount has no meridian limit
             return dt
-        v = self._vel[RA]
-        p = self._pos[RA]
-        stop = self._meridian_stop_deg()
-        if v > 0.0 and v == self._commanded(RA) and p <= stop < p + v * dt:
+        v = self.vel[RA]
+        p = self.pos[RA]
+        stop = self.meridian_stop_deg()
+        if v > 0.0 and v == self.commanded(RA) and p <= stop < p + v * dt:
             return max((stop - p) / v + 1e-9, 1e-9)
         return dt
 
     def _step(self, dt: float) -> None:
-        if self._slew is not None:
+        if self.slew is not None:
             self._slew_step(dt)
-        elif self._altaz():
+        elif self.altaz():
             # The sky motion EQ mode gives the axes directly, turned into azimuth/altitude motion;
             # guide pulses move nothing in alt-az (field notes §2.5, PT).
-            sky_velocity = (self._commanded(RA, pulses=False), self._commanded(DEC, pulses=False))
-            if not self._tracking or self._moves != [None, None]:
-                self._disturbed_t = self._t + dt
-            limits = (self._accel, self._persist.max_speed * SIDEREAL_DEG_S)
-            settled = self._t - self._disturbed_t >= SETTLED_S
-            follow_sky(self._pos, self._vel, sky_velocity, self._latitude, limits, dt, may_invert=settled)
+            sky_velocity = (self.commanded(RA, pulses=False), self.commanded(DEC, pulses=False))
+            if not self.tracking or self.moves != [None, None]:
+                self.disturbed_t = self.t + dt
+            limits = (self._accel, self._flash.persist.max_speed * SIDEREAL_DEG_S)
+            settled = self.t - self.disturbed_t >= SETTLED_S
+            follow_sky(self.pos, self.vel, sky_velocity, self._site.latitude_deg, limits, dt, may_invert=settled)
         else:
             for axis in (RA, DEC):
-                self._pos[axis], self._vel[axis] = ramp(
-                    self._pos[axis], self._vel[axis], self._commanded(axis), self._accel, dt
+                self.pos[axis], self.vel[axis] = ramp(
+                    self.pos[axis], self.vel[axis], self.commanded(axis), self._accel, dt
                 )
         self._note_side()
-        if self._tracking and self._slew is None:
+        if self.tracking and self.slew is None:
             self._check_tracking_limits()
 
     def _slew_step(self, dt: float) -> None:
-        slew = self._slew
+        slew = self.slew
         assert slew is not None
-        self._disturbed_t = self._t + dt + 3.0  # a slew ends braking onto the target
-        vmax = self._persist.max_speed * SIDEREAL_DEG_S
-        t = self._t
+        self.disturbed_t = self.t + dt + 3.0  # a slew ends braking onto the target
+        vmax = self._flash.persist.max_speed * SIDEREAL_DEG_S
+        t = self.t
         for axis in (RA, DEC):
             vt = slew.velocity(axis, t)
             if slew.done[axis]:
-                self._pos[axis] = slew.target(axis, t + dt)
-                self._vel[axis] = vt
+                self.pos[axis] = slew.target(axis, t + dt)
+                self.vel[axis] = vt
                 continue
-            error = slew.target(axis, t) - self._pos[axis]
-            if abs(error) <= SNAP_DEG and abs(self._vel[axis] - vt) <= self._accel * dt + 1e-9:
+            error = slew.target(axis, t) - self.pos[axis]
+            if abs(error) <= SNAP_DEG and abs(self.vel[axis] - vt) <= self._accel * dt + 1e-9:
                 slew.done[axis] = True
-                self._pos[axis] = slew.target(axis, t + dt)
-                self._vel[axis] = vt
+                self.pos[axis] = slew.target(axis, t + dt)
+                self.vel[axis] = vt
                 continue
             # Braking curve (never faster than it can stop), and never more than the remaining
             # error per step, so the sampled controller settles instead of ringing.
             speed = min(vmax, math.sqrt(2.0 * self._accel * abs(error)), abs(error) / dt)
             desired = max(-vmax, min(vmax, vt + math.copysign(speed, error)))
-            self._pos[axis], self._vel[axis] = ramp(self._pos[axis], self._vel[axis], desired, self._accel, dt)
+            self.pos[axis], self.vel[axis] = ramp(self.pos[axis], self.vel[axis], desired, self._accel, dt)
         if all(slew.done):
             self._arrive(slew)
 
     def _arrive(self, slew: Slew) -> None:
-        self._slew = None
-        self._last_side = slew.side
+        self.slew = None
+        self.last_side = slew.side
         if slew.kind == "goto":
-            self._tracking = True  # GOTO arrival switches tracking on, at the selected rate
-            self._track_error = None
+            self.tracking = True  # GOTO arrival switches tracking on, at the selected rate
+            self.track_error = None
         else:
-            self._tracking = False
-            self._vel = [0.0, 0.0]
+            self.tracking = False
+            self.vel = [0.0, 0.0]
             if slew.kind == "home":
-                self._pos = [HOME_P, HOME_S]
-                self._homed = True
-                self._home_flag = True
+                self.pos = [HOME_P, HOME_S]
+                self.homed = True
+                self.home_flag = True
 
-    def _begin_braking(self) -> None:
+    def start_slew(self, slew: Slew) -> None:
+        """A GOTO, home or park slew takes over both axes from whatever drove them."""
+        self.slew = slew
+        self.braking_until = self.t  # the new slew takes over the braking axes
+        self.moves = [None, None]
+        self.pulses = [None, None]
+        self.track_error = None  # a slew moves away from whatever stopped tracking
+
+    def begin_braking(self) -> None:
         """A slew stopped by ``:Q#``: the mount stays in its GOTO state until both axes have braked
         to the speed they keep (tracking or rest) at the normal deceleration, exactly as ``ramp`` does."""
-        keep = [0.0, 0.0] if self._altaz() else [self._commanded(RA), self._commanded(DEC)]
-        excess = max(abs(self._vel[axis] - keep[axis]) for axis in (RA, DEC))
-        self._braking_until = self._t + excess / self._accel
+        keep = [0.0, 0.0] if self.altaz() else [self.commanded(RA), self.commanded(DEC)]
+        excess = max(abs(self.vel[axis] - keep[axis]) for axis in (RA, DEC))
+        self.braking_until = self.t + excess / self._accel
 
-    def _braking(self) -> bool:
-        return self._t < self._braking_until - 1e-9
+    def braking(self) -> bool:
+        return self.t < self.braking_until - 1e-9
 
-    def _commanded(self, axis: int, pulses: bool = True) -> float:
+    def commanded(self, axis: int, pulses: bool = True) -> float:
         """Steady velocity an axis is driven at outside slews (mechanical deg/s; in alt-az mode the
         hour-angle and Dec speeds the pointing is to move at)."""
-        move = self._moves[axis]
-        pulse = self._pulses[axis] if pulses else None
+        move = self.moves[axis]
+        pulse = self.pulses[axis] if pulses else None
         extra = (move or 0.0) + (pulse.velocity if pulse is not None else 0.0)
         if axis == DEC:
             return extra
-        tracking = self._tracking_velocity() if self._tracking else 0.0
-        if (move is not None or pulse is not None) and not self._tracking:
+        tracking = self._tracking_velocity() if self.tracking else 0.0
+        if (move is not None or pulse is not None) and not self.tracking:
             # Moves and pulses are relative to the sky: the RA reading changes at the commanded
             # rate whether or not tracking is on (PYAM5 observation), so they ride on sidereal.
             return SIDEREAL_DEG_S + extra
@@ -166,81 +241,75 @@ class Mechanics(ModelBase):
             "sidereal": SIDEREAL_DEG_S,
             "solar": SOLAR_DEG_S,
             "lunar": LUNAR_DEG_S,
-            "custom": self._custom_multiple * SIDEREAL_DEG_S,
-        }[self._track_rate]
+            "custom": self.custom_multiple * SIDEREAL_DEG_S,
+        }[self.track_rate]
 
     def _check_tracking_limits(self) -> None:
-        if self._altaz():
-            if self._pos[DEC] > 90.0 + 1e-9:  # carried over the zenith: "altitude inverted"
-                self._tracking = False
-                self._track_error = 10
-            elif self._raw_altitude() < 0.0:
-                self._tracking = False
-                self._track_error = 5
+        if self.altaz():
+            if self.pos[DEC] > 90.0 + 1e-9:  # carried over the zenith: "altitude inverted"
+                self.tracking = False
+                self.track_error = 10
+            elif self.raw_altitude() < 0.0:
+                self.tracking = False
+                self.track_error = 5
             return
-        if self._pos[RA] > self._meridian_stop_deg():
-            self._tracking = False
-            self._track_error = 8
+        if self.pos[RA] > self.meridian_stop_deg():
+            self.tracking = False
+            self.track_error = 8
             return
-        if self._raw_altitude() < 0.0:
-            self._tracking = False
-            self._track_error = 5
+        if self.raw_altitude() < 0.0:
+            self.tracking = False
+            self.track_error = 5
 
-    def _meridian_stop_deg(self) -> float:
+    def meridian_stop_deg(self) -> float:
         """Primary-axis angle past which tracking stops (field notes §5.3, ZWO v2.1 p.18)."""
-        settings = self._persist.meridian
+        settings = self._flash.persist.meridian
         limit = float(settings.limit_degrees)
         if limit < 0.0:
             return limit
         return max(limit, 1.0) if settings.track_after else 1.0
 
-    #: Which reading of the evidence the GOTO side follows (docs/meridian.md): False (the default,
-    #: the assumption) = a GOTO flips only past the track-past limit; True = at the meridian itself
-    #: (ASIAIR users' description), a negative limit still moving the line before the meridian.
-    goto_flip_at_meridian = False
-
-    def _goto_limit_deg(self) -> float:
-        """The limit handed to ``sky.goto_pier_side``: how far past the meridian the west side may go."""
-        settings = self._persist.meridian
-        limit = float(settings.limit_degrees)
-        if self.goto_flip_at_meridian:
-            return min(limit, 0.0)
-        return limit if limit < 0.0 or settings.track_after else 0.0
-
     def _note_side(self) -> None:
-        s = self._pos[DEC]
+        s = self.pos[DEC]
         if s < 90.0 - 1e-9 and s > -90.0 + 1e-9:
-            self._last_side = sky.PierSide.WEST
+            self.last_side = sky.PierSide.WEST
         elif s > 90.0 + 1e-9 or s < -90.0 - 1e-9:
-            self._last_side = sky.PierSide.EAST
+            self.last_side = sky.PierSide.EAST
 
     # ---------------------------------------------------------------- derived quantities
 
-    def _at_home_position(self) -> bool:
-        return abs(self._pos[RA] - HOME_P) < AT_HOME_DEG and abs(self._pos[DEC] - HOME_S) < AT_HOME_DEG
+    def at_home_position(self) -> bool:
+        return abs(self.pos[RA] - HOME_P) < AT_HOME_DEG and abs(self.pos[DEC] - HOME_S) < AT_HOME_DEG
 
-    def _side(self) -> sky.PierSide:
-        return self._last_side
+    def side(self) -> sky.PierSide:
+        return self.last_side
 
-    def _moving(self) -> bool:
+    def moving(self) -> bool:
         """A slew, manual move or pulse is under way (tracking alone does not count)."""
         return (
-            self._slew is not None
-            or any(m is not None for m in self._moves)
-            or any(p is not None for p in self._pulses)
+            self.slew is not None
+            or any(m is not None for m in self.moves)
+            or any(p is not None for p in self.pulses)
         )
 
-    def _raw_ha_dec(self) -> tuple[float, float]:
-        if self._altaz():
-            return axes_to_ha_dec_altaz(self._pos[RA], self._pos[DEC], self._latitude)
-        return axes_to_ha_dec(self._pos[RA], self._pos[DEC])
+    def dec_sign(self) -> float:
+        """+1 when raising the secondary angle raises Dec (west side), -1 through the pole; in alt-az
+        mode moves are sky motions (the alt-az controller turns them into axis motions), so +1."""
+        if self.altaz():
+            return 1.0
+        return 1.0 if self.side() is sky.PierSide.WEST else -1.0
 
-    def _raw_altitude(self) -> float:
-        ha, dec = self._raw_ha_dec()
-        return sky.equatorial_to_horizontal(ha, dec, self._latitude)[0]
+    def raw_ha_dec(self) -> tuple[float, float]:
+        if self.altaz():
+            return axes_to_ha_dec_altaz(self.pos[RA], self.pos[DEC], self._site.latitude_deg)
+        return axes_to_ha_dec(self.pos[RA], self.pos[DEC])
 
-    def _reported(self) -> tuple[float, float]:
-        ha, dec = self._raw_ha_dec()
-        raw_ra = sky.ra_from_hour_angle(self._lst(), ha)
-        ra = sky.wrap_hours_24(raw_ra + self._offset_ra)
-        return ra, max(-90.0, min(90.0, dec + self._offset_dec))
+    def raw_altitude(self) -> float:
+        ha, dec = self.raw_ha_dec()
+        return sky.equatorial_to_horizontal(ha, dec, self._site.latitude_deg)[0]
+
+    def reported(self) -> tuple[float, float]:
+        ha, dec = self.raw_ha_dec()
+        raw_ra = sky.ra_from_hour_angle(self._site.lst(self.t), ha)
+        ra = sky.wrap_hours_24(raw_ra + self.offset_ra)
+        return ra, max(-90.0, min(90.0, dec + self.offset_dec))

@@ -92,28 +92,29 @@ class Responder:
 
     def _build_table(self) -> dict[str, Handler]:
         m = self.model
+        flash, site = m.flash, m.clock_site
         silent = self._silent
 
         table: dict[str, Handler] = {
             # Date, time, site
             "SC": self._set_date,
-            "GC": lambda a, w: format_date(m.local_datetime().date()) + "#",
+            "GC": lambda a, w: format_date(site.local_datetime().date()) + "#",
             "SL": self._set_time,
-            "GL": lambda a, w: format_time(m.local_datetime().time()) + "#",
+            "GL": lambda a, w: format_time(site.local_datetime().time()) + "#",
             "SS": self._set_sidereal,
-            "GS": lambda a, w: format_hms(m.sidereal_time()) + "#",
-            "GH": lambda a, w: m.dst(),
-            "SH": lambda a, w: w and m.set_dst(a == "1"),
+            "GS": lambda a, w: format_hms(site.sidereal_time()) + "#",
+            "GH": lambda a, w: site.dst(),
+            "SH": lambda a, w: w and site.set_dst(a == "1"),
             "SG": self._set_zone,
-            "GG": lambda a, w: format_utc_offset(m.utc_offset()) + "#",
+            "GG": lambda a, w: format_utc_offset(site.utc_offset()) + "#",
             "St": self._set_latitude,
-            "Gt": lambda a, w: format_latitude(m.latitude()) + "#",
+            "Gt": lambda a, w: format_latitude(site.latitude()) + "#",
             "Sg": self._set_longitude,
-            "Gg": lambda a, w: format_longitude(m.longitude()) + "#",
+            "Gg": lambda a, w: format_longitude(site.longitude()) + "#",
             "SMTI": self._set_date_time_zone,
             "GMTI": self._get_date_time_zone,
             "SMGE": self._set_site,
-            "GMGE": lambda a, w: f"{format_latitude(m.latitude())}&{format_longitude(m.longitude())}#",
+            "GMGE": lambda a, w: f"{format_latitude(site.latitude())}&{format_longitude(site.longitude())}#",
             # Position and target
             "Gm": lambda a, w: m.pier_letter() + "#",
             "Sr": self._set_target_ra,
@@ -174,28 +175,28 @@ class Responder:
             "Gps": self._park_status,
             # Meridian and limits
             "STa": self._meridian_firmware(self._set_meridian),
-            "GTa": self._meridian_firmware(lambda a, w: format_meridian(m.meridian()) + "#"),
-            "SLE": self._always_one(lambda: m.set_limits_enabled(True)),
-            "SLD": self._always_one(lambda: m.set_limits_enabled(False)),
-            "GLC": lambda a, w: m.limits_enabled(),
+            "GTa": self._meridian_firmware(lambda a, w: format_meridian(flash.meridian()) + "#"),
+            "SLE": self._always_one(lambda: flash.set_limits_enabled(True)),
+            "SLD": self._always_one(lambda: flash.set_limits_enabled(False)),
+            "GLC": lambda a, w: flash.limits_enabled(),
             "SLH": self._set_upper_limit,
-            "GLH": lambda a, w: f"{m.altitude_limits()[1]}#",
+            "GLH": lambda a, w: f"{flash.altitude_limits()[1]}#",
             "SLL": self._set_lower_limit,
-            "GLL": lambda a, w: f"{m.altitude_limits()[0]}#",
-            "SRl": lambda a, w: w and m.set_max_speed(int(a)),
-            "GRl": lambda a, w: f"{m.max_speed()}#",
+            "GLL": lambda a, w: f"{flash.altitude_limits()[0]}#",
+            "SRl": lambda a, w: w and flash.set_max_speed(int(a)),
+            "GRl": lambda a, w: f"{flash.max_speed()}#",
             # Mode, buzzer, identity
-            "AP": silent(lambda: m.request_mode(MountMode.EQUATORIAL)),
-            "AA": silent(lambda: m.request_mode(MountMode.ALTAZ)),
+            "AP": silent(lambda: flash.request_mode(MountMode.EQUATORIAL)),
+            "AA": silent(lambda: flash.request_mode(MountMode.ALTAZ)),
             "SBu": self._buzzer,
-            "GBu": lambda a, w: f"{m.buzzer()}#",
+            "GBu": lambda a, w: f"{flash.buzzer()}#",
             "GU": lambda a, w: format_status(m.status()) + "#",
             "GV": lambda a, w: m.firmware.version + "#",
             "GVP": lambda a, w: m.firmware.model + "#",
             "GVT": lambda a, w: m.firmware.compile_time + "#",
-            "GBl": lambda a, w: m.ble_name() + "#",
-            "SBl": lambda a, w: w and m.set_ble_suffix(a),
-            "BS": lambda a, w: "OK#" if w and m.ble_pair(a) else "NO#",
+            "GBl": lambda a, w: flash.ble_name() + "#",
+            "SBl": lambda a, w: w and flash.set_ble_suffix(a),
+            "BS": lambda a, w: "OK#" if w and flash.ble_pair(a) else "NO#",
         }
         return table
 
@@ -233,26 +234,26 @@ class Responder:
 
     def _buzzer(self, argument: str, well_formed: bool) -> None:
         if well_formed:
-            self.model.set_buzzer(int(argument))
+            self.model.flash.set_buzzer(int(argument))
         return None  # :SBu# answers nothing (INDI and INDIGO read no reply)
 
     # ---------------------------------------------------------------- date, time, site
 
     def _set_date(self, argument: str, well_formed: bool) -> bool:
         try:
-            return well_formed and self.model.set_date(parse_date(argument))
+            return well_formed and self.model.clock_site.set_date(parse_date(argument))
         except ProtocolError:
             return False
 
     def _set_time(self, argument: str, well_formed: bool) -> bool:
         try:
-            return well_formed and self.model.set_time(parse_time(argument))
+            return well_formed and self.model.clock_site.set_time(parse_time(argument))
         except ProtocolError:
             return False
 
     def _set_sidereal(self, argument: str, well_formed: bool) -> str | bool:
         try:
-            if well_formed and self.model.set_sidereal_time(parse_hms(argument)):
+            if well_formed and self.model.clock_site.set_sidereal_time(parse_hms(argument)):
                 return True
         except ProtocolError:
             pass
@@ -260,19 +261,19 @@ class Responder:
 
     def _set_zone(self, argument: str, well_formed: bool) -> bool:
         try:
-            return well_formed and self.model.set_utc_offset(parse_utc_offset(argument))
+            return well_formed and self.model.clock_site.set_utc_offset(parse_utc_offset(argument))
         except ProtocolError:
             return False
 
     def _set_latitude(self, argument: str, well_formed: bool) -> bool:
         try:
-            return well_formed and self.model.set_latitude(parse_dms(argument))
+            return well_formed and self.model.clock_site.set_latitude(parse_dms(argument))
         except ProtocolError:
             return False
 
     def _set_longitude(self, argument: str, well_formed: bool) -> bool:
         try:
-            return well_formed and self.model.set_longitude(parse_longitude(argument))
+            return well_formed and self.model.clock_site.set_longitude(parse_longitude(argument))
         except ProtocolError:
             return False
 
@@ -284,11 +285,11 @@ class Responder:
             day, clock, offset = parse_date(day_text), parse_time(time_text), parse_utc_offset(zone_text)
         except (ProtocolError, ValueError):
             return False
-        return self.model.set_date_time_zone(day, clock, offset)
+        return self.model.clock_site.set_date_time_zone(day, clock, offset)
 
     def _get_date_time_zone(self, _argument: str, _well_formed: bool) -> str:
-        local = self.model.local_datetime()
-        zone = format_utc_offset(self.model.utc_offset())
+        local = self.model.clock_site.local_datetime()
+        zone = format_utc_offset(self.model.clock_site.utc_offset())
         return f"{format_date(local.date())}&{format_time(local.time())}&{zone}#"
 
     def _set_site(self, argument: str, well_formed: bool) -> bool:
@@ -301,7 +302,7 @@ class Responder:
             return False
         if not (-90.0 <= latitude <= 90.0 and -180.0 <= longitude <= 180.0):
             return False
-        return self.model.set_latitude(latitude) and self.model.set_longitude(longitude)
+        return self.model.clock_site.set_latitude(latitude) and self.model.clock_site.set_longitude(longitude)
 
     # ---------------------------------------------------------------- position and target
 
@@ -422,14 +423,14 @@ class Responder:
         if not well_formed:
             return False
         try:
-            return self.model.set_meridian(parse_meridian(argument))
+            return self.model.flash.set_meridian(parse_meridian(argument))
         except ProtocolError:
             return False
 
     def _set_upper_limit(self, argument: str, _well_formed: bool) -> bool:
         value = _two_digits(argument)
-        return value is not None and self.model.set_upper_limit(value)
+        return value is not None and self.model.flash.set_upper_limit(value)
 
     def _set_lower_limit(self, argument: str, _well_formed: bool) -> bool:
         value = _two_digits(argument)
-        return value is not None and self.model.set_lower_limit(value)
+        return value is not None and self.model.flash.set_lower_limit(value)

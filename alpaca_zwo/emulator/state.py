@@ -1,22 +1,18 @@
 """The pieces of an emulated mount's state: constants, what it keeps in flash, slews, pulses, axis kinematics.
 
-Shared by the parts of :class:`~alpaca_zwo.emulator.model.MountModel` (``physics``, ``clocksite``,
-``flash``); :class:`ModelBase` declares the state they all work on, so each part can live in its
-own module and still be checked as one object.
+Shared by :class:`~alpaca_zwo.emulator.model.MountModel` and its parts (``flash.FlashSettings``,
+``clocksite.ClockAndSite``, ``physics.Mechanics``, ``altaz.AltAzRules``); each part owns its own
+state, so this module holds only values and pure functions.
 """
 
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass, field
 from datetime import datetime
 
 from .. import sky
-from ..zwo.firmware import FirmwareVariant
 from ..zwo.wire_values import MeridianSettings, MountMode
-from .clock import Clock
-from .faults import Faults
 
 # --------------------------------------------------------------------------------------------
 # Constants
@@ -114,67 +110,3 @@ def axes_to_ha_dec(p: float, s: float) -> tuple[float, float]:
         return sky.wrap_hours_12(p / 15.0), s
     dec = 180.0 - s if s > 90.0 else -180.0 - s
     return sky.wrap_hours_12(p / 15.0 + 12.0), dec
-
-
-class ModelBase:
-    """The state every part of the model reads and writes, under ``_lock`` (set up by ``MountModel``)."""
-
-    _lock: threading.RLock
-    _clock: Clock
-    firmware: FirmwareVariant
-    faults: Faults
-    power_ups: int
-    _accel: float
-    _persist: Persistent
-    _t: float  # emulated seconds the physics has been advanced to
-    # The mount's own clock and site (volatile: lost at power-off)
-    _local_ref: datetime
-    _local_ref_t: float
-    _utc_offset: float
-    _dst: bool
-    _lst_offset: float
-    _date_set: bool
-    _time_set: bool
-    _lat_set: bool
-    _lon_set: bool
-    _latitude: float
-    _longitude: float
-    _mode: MountMode
-    _ble_suffix: str
-    # Mechanics
-    _pos: list[float]
-    _vel: list[float]
-    _last_side: sky.PierSide
-    _slew: Slew | None
-    _braking_until: float  # emulated time a slew stopped by :Q# ends braking (GOTO state held till then)
-    _moves: list[float | None]
-    _pulses: list[Pulse | None]
-    _speed: float
-    _disturbed_t: float  # when a slew, move or untracked motion last ran (alt-az zenith rule)
-    _axis_speed: list[float | None]
-    # Tracking
-    _tracking: bool
-    _track_rate: str
-    _custom_multiple: float
-    _track_error: int | None
-    # Targets and alignment
-    _target_ra: float
-    _target_dec: float
-    _offset_ra: float
-    _offset_dec: float
-    _alignment_points: int
-    # Home bookkeeping
-    _homed: bool
-    _home_flag: bool
-
-    def _advance(self) -> None:
-        """Integrate the physics up to the clock's present (``physics.Mechanics``)."""
-        raise NotImplementedError
-
-    def _lst(self) -> float:
-        """The mount's local sidereal time (``clocksite.ClockAndSite``)."""
-        raise NotImplementedError
-
-    def _initialized(self) -> bool:
-        """Date, time and site set since power-up (``clocksite.ClockAndSite``)."""
-        raise NotImplementedError

@@ -141,21 +141,21 @@ def test_supported_actions_needs_no_connection(server_factory: ServerFactory) ->
 
 
 def test_buzzer_volume(rig: Rig) -> None:
-    rig.model.set_buzzer(0)
+    rig.model.flash.set_buzzer(0)
     assert rig.action("zwo:BuzzerVolume") == {"volume": 0, "name": "off"}
     start = rig.trace_length()
     assert rig.action("zwo:BuzzerVolume", {"volume": 2}) == {"volume": 2, "name": "high"}
     sent = rig.sent_since(start)  # also shows the trace filter of the bad-parameter test sees real commands
     assert ":SBu2#" in sent and ":GBu#" in sent[sent.index(":SBu2#"):], sent  # written, then read back
-    assert rig.model.buzzer() == 2
-    assert rig.action("zwo:BuzzerVolume", {"volume": 1})["name"] == "low" and rig.model.buzzer() == 1
+    assert rig.model.flash.buzzer() == 2
+    assert rig.action("zwo:BuzzerVolume", {"volume": 1})["name"] == "low" and rig.model.flash.buzzer() == 1
 
 
 def test_heavy_duty_mode(rig: Rig) -> None:
     assert rig.action("zwo:HeavyDutyMode") == {"enabled": False, "max_speed": 1440}
     assert rig.action("zwo:HeavyDutyMode", {"enabled": True}) == {"enabled": True, "max_speed": 720}
-    assert rig.model.max_speed() == 720
-    rig.model.set_max_speed(1440)  # changed behind the server's back (e.g. by the ZWO app): read, not cached
+    assert rig.model.flash.max_speed() == 720
+    rig.model.flash.set_max_speed(1440)  # changed behind the server's back (e.g. by the ZWO app): read, not cached
     assert rig.action("zwo:HeavyDutyMode")["enabled"] is False
 
 
@@ -163,13 +163,13 @@ def test_meridian_settings_reach_the_mount_and_the_config_file(rig: Rig) -> None
     reply = rig.action("zwo:MeridianSettings", {"track_past": True, "limit_degrees": 10})
     assert reply == {"track_past": True, "limit_degrees": 10, "flip": False,
                      "configured": {"track_past": True, "limit_degrees": 10}}
-    assert rig.model.meridian() == MeridianSettings(flip=False, track_after=True, limit_degrees=10)
+    assert rig.model.flash.meridian() == MeridianSettings(flip=False, track_after=True, limit_degrees=10)
     saved = load_settings(rig.server.store.path).limits
     assert (saved.meridian_track_past, saved.meridian_limit_deg) == (True, 10.0)
     # A partial write keeps the other value.
     reply = rig.action("zwo:MeridianSettings", {"limit_degrees": -5})
     assert (reply["track_past"], reply["limit_degrees"]) == (True, -5)
-    assert rig.model.meridian() == MeridianSettings(flip=False, track_after=True, limit_degrees=-5)
+    assert rig.model.flash.meridian() == MeridianSettings(flip=False, track_after=True, limit_degrees=-5)
 
 
 def test_meridian_settings_refused_on_old_firmware(server_factory: ServerFactory) -> None:
@@ -181,7 +181,7 @@ def test_meridian_settings_refused_on_old_firmware(server_factory: ServerFactory
         with pytest.raises(NotImplementedException, match=r"1\.2\.4"):
             rig.action("zwo:MeridianSettings", parameters)
     assert not [r for r in rig.sent_since(start) if r.startswith((":STa", ":GTa"))]
-    assert rig.model.meridian() == MeridianSettings()
+    assert rig.model.flash.meridian() == MeridianSettings()
 
 
 def test_old_firmware_cannot_flip_and_its_gotos_never_touch_the_meridian_setting(
@@ -206,9 +206,9 @@ def test_altitude_limits(rig: Rig) -> None:
     assert rig.action("zwo:AltitudeLimits") == {"enabled": False, "upper": 90, "lower": 0}
     reply = rig.action("zwo:AltitudeLimits", {"enabled": True, "upper": 80, "lower": 15})
     assert reply == {"enabled": True, "upper": 80, "lower": 15}
-    assert rig.model.limits_enabled() is True and rig.model.altitude_limits() == (15, 80)
+    assert rig.model.flash.limits_enabled() is True and rig.model.flash.altitude_limits() == (15, 80)
     assert rig.action("zwo:AltitudeLimits", {"lower": 0}) == {"enabled": True, "upper": 80, "lower": 0}
-    rig.model.set_limits_enabled(False)
+    rig.model.flash.set_limits_enabled(False)
     assert rig.action("zwo:AltitudeLimits")["enabled"] is False
 
 
@@ -219,11 +219,11 @@ def test_mount_mode_switch_needs_a_restart(rig: Rig) -> None:
     reply = rig.action("zwo:MountMode", {"mode": "altaz"})
     assert reply["mode"] == "equatorial" and reply["requested"] == "altaz" and reply["restart_required"] is True
     assert "restarted" in reply["message"]
-    assert rig.model.mode() is MountMode.EQUATORIAL  # not yet
+    assert rig.model.flash.mode() is MountMode.EQUATORIAL  # not yet
     assert rig.action("zwo:MountMode")["restart_required"] is True  # still pending on a later read
 
     rig.model.power_cycle()  # the user restarts the mount
-    assert rig.model.mode() is MountMode.ALTAZ
+    assert rig.model.flash.mode() is MountMode.ALTAZ
     wait_for(lambda: rig.action("zwo:MountMode")["mode"] == "altaz", 10, "the server to see alt-az mode")
     assert rig.action("zwo:MountMode") == {"mode": "altaz", "requested": "altaz", "restart_required": False}
 
@@ -296,8 +296,9 @@ BAD_PARAMETERS = [
 
 
 def _emulator_settings(model: MountModel) -> tuple[object, ...]:
-    return (model.buzzer(), model.max_speed(), model.meridian(), model.limits_enabled(), model.altitude_limits(),
-            model.mode())
+    flash = model.flash
+    return (flash.buzzer(), flash.max_speed(), flash.meridian(), flash.limits_enabled(), flash.altitude_limits(),
+            flash.mode())
 
 
 @pytest.mark.parametrize(("name", "parameters"), BAD_PARAMETERS)
@@ -326,16 +327,16 @@ def test_unknown_names_are_action_not_implemented(shared_rig: Rig) -> None:
 
 def test_names_match_case_insensitively(shared_rig: Rig) -> None:
     rig = shared_rig
-    rig.model.set_buzzer(1)
+    rig.model.flash.set_buzzer(1)
     for name in ("zwo:buzzervolume", "ZWO:BUZZERVOLUME", "Zwo:BuzzerVolume"):
         assert rig.action(name)["volume"] == 1
-    assert rig.action("ZWO:buzzerVOLUME", {"volume": 0})["volume"] == 0 and rig.model.buzzer() == 0
+    assert rig.action("ZWO:buzzerVOLUME", {"volume": 0})["volume"] == 0 and rig.model.flash.buzzer() == 0
 
 
 @pytest.mark.parametrize("parameters", [None, "", "{}", "  ", " {} "])
 def test_empty_parameters_read(shared_rig: Rig, parameters: str | None) -> None:
     rig = shared_rig
-    rig.model.set_buzzer(2)
+    rig.model.flash.set_buzzer(2)
     assert rig.action("zwo:BuzzerVolume", parameters) == {"volume": 2, "name": "high"}
 
 

@@ -323,7 +323,7 @@ def test_time_and_site_setters_go_through_the_telescope(server: AlpacaZwoServer,
     assert zwo.ask(":St+48*06:00#") == b"1"
     assert alpaca.SiteLongitude == pytest.approx(11.5, abs=1e-6)
     assert alpaca.SiteLatitude == pytest.approx(48.1, abs=1e-6)
-    assert server.emulators[0].model.latitude() == pytest.approx(48.1, abs=1 / 3600)
+    assert server.emulators[0].model.clock_site.latitude() == pytest.approx(48.1, abs=1 / 3600)
     assert zwo.ask(":St+95*00:00#") == b"0"  # the Telescope's validation
     assert alpaca.SiteLatitude == pytest.approx(48.1, abs=1e-6)
     # The same clock again (whole seconds) changes nothing; another date moves UTCDate for everyone.
@@ -350,13 +350,13 @@ def test_commands_that_affect_everyone_are_refused_unless_allowed(server: Alpaca
     assert zwo.ask(":STa01+05#") == b"0"
     assert zwo.ask(":BSabc123#") == b"NO#"
     assert zwo.ask(":GRl#") == b"1440#"
-    assert model.max_speed() == 1440
+    assert model.flash.max_speed() == 1440
     assert zwo.ask(":GLC#") == b"0#"
     assert server.zwo_port.status()["refusals"] == 6
     server.store.update(lambda s: dataclasses.replace(
         s, zwo_port=dataclasses.replace(s.zwo_port, allow_dangerous=("SRl", "STa"))))
     assert zwo.ask(":SRl720#") == b"1"
-    assert model.max_speed() == 720
+    assert model.flash.max_speed() == 720
     assert zwo.ask(":GRl#") == b"720#"
     assert zwo.ask(":STa01+05#") == b"1"
     assert zwo.ask(":GTa#") == b"01+05#"

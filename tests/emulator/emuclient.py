@@ -125,7 +125,7 @@ def initialize(client: MountClient, clock: ManualClock, utc_offset_hours: float 
 
 def target_at(model: MountModel, ha_hours: float) -> float:
     """RA of the point at ``ha_hours`` right now by the mount's own sidereal time."""
-    return sky.ra_from_hour_angle(model.sidereal_time(), ha_hours)
+    return sky.ra_from_hour_angle(model.clock_site.sidereal_time(), ha_hours)
 
 
 def slew(client: MountClient, clock: ManualClock, ra_hours: float, dec_deg: float, step: float = 0.5) -> float:

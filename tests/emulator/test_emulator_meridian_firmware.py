@@ -26,10 +26,10 @@ def test_meridian_commands_follow_the_firmware(mount: MountClient, model: MountM
     if firmware.version in OLD:
         mount.assert_silent(":GTa#")
         mount.assert_silent(":STa01+05#")
-        assert model.meridian() == MeridianSettings()
+        assert model.flash.meridian() == MeridianSettings()
         assert mount.ask(":GVP#") == "AM5#"  # still in step: the silence left nothing behind
         return
     assert mount.ask(":GTa#") == "00+00#"  # factory setting
     assert mount.ask(":STa01+05#") == "1"
     assert mount.ask(":GTa#") == "01+05#"
-    assert model.meridian() == MeridianSettings(flip=False, track_after=True, limit_degrees=5)
+    assert model.flash.meridian() == MeridianSettings(flip=False, track_after=True, limit_degrees=5)

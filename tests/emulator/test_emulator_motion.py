@@ -322,7 +322,7 @@ def test_pier_side_after_goto_follows_the_hour_angle(
     goto_ha(ready, model, clock, ha, 70.0)
     assert ready.ask(":Gm#") == letter + "#"
     ra, _ = model.position()
-    expected = sky.pointing_state(sky.hour_angle(model.sidereal_time(), ra))
+    expected = sky.pointing_state(sky.hour_angle(model.clock_site.sidereal_time(), ra))
     assert (letter == "W") == (expected is sky.PierSide.WEST)
 
 
@@ -358,7 +358,7 @@ def test_meridian_limit_decides_the_goto_side(
     goto_ha(ready, model, clock, ha, 40.0)
     assert ready.ask(":Gm#") == letter + "#"
     ra, _ = model.position()
-    expected = sky.goto_pier_side(sky.hour_angle(model.sidereal_time(), ra), sky.PierSide.UNKNOWN, limit)
+    expected = sky.goto_pier_side(sky.hour_angle(model.clock_site.sidereal_time(), ra), sky.PierSide.UNKNOWN, limit)
     assert (letter == "W") == (expected is sky.PierSide.WEST)
 
 
@@ -621,7 +621,7 @@ def test_physics_is_deterministic_for_the_same_clock_readings(clock: ManualClock
     def run() -> tuple[float, float]:
         local = ManualClock(clock.now())
         model = MountModel(local, initialized=True)
-        model.set_target_ra(sky.ra_from_hour_angle(model.sidereal_time(), 2.0))
+        model.set_target_ra(sky.ra_from_hour_angle(model.clock_site.sidereal_time(), 2.0))
         model.set_target_dec(25.0)
         assert model.goto() == 0
         for step in (0.3, 1.7, 0.05, 4.0, 12.5, 0.01, 30.0):

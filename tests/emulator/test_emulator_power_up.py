@@ -117,10 +117,10 @@ def test_site_and_time_are_lost_and_restored_to_factory_on_reboot(
 def test_model_site_and_initialized_options() -> None:
     clock = ManualClock(datetime(2025, 6, 1, 21, 30, tzinfo=timezone.utc))
     model = MountModel(clock, site=(52.5, 13.4), initialized=True)
-    assert model.latitude() == 52.5 and model.longitude() == 13.4
-    assert model.local_datetime() == datetime(2025, 6, 1, 21, 30)
+    assert model.clock_site.latitude() == 52.5 and model.clock_site.longitude() == 13.4
+    assert model.clock_site.local_datetime() == datetime(2025, 6, 1, 21, 30)
     snapshot = model.snapshot()
     assert snapshot["initialized"] is True
     # and the factory default when no site is given
     plain = MountModel(clock)
-    assert (plain.latitude(), plain.longitude()) == (FACTORY_LATITUDE, FACTORY_LONGITUDE)
+    assert (plain.clock_site.latitude(), plain.clock_site.longitude()) == (FACTORY_LATITUDE, FACTORY_LONGITUDE)

@@ -76,16 +76,16 @@ def test_indi_lx200am5_drives_the_emulator(indi: IndiServer, emulator: EmulatorS
     indi.set(f"TIME_UTC.UTC;OFFSET={now:%Y-%m-%dT%H:%M:%S};3")
     indi.set("GEOGRAPHIC_COORD.LAT;LONG;ELEV=48.1;11.5;500")
     wait_until(
-        lambda: model.snapshot()["initialized"] and model.latitude() == pytest.approx(48.1, abs=1e-3),
+        lambda: model.snapshot()["initialized"] and model.clock_site.latitude() == pytest.approx(48.1, abs=1e-3),
         20,
         "time and site to reach the mount",
     )
-    assert model.utc_offset() == 3.0
-    assert model.longitude() == pytest.approx(11.5, abs=1e-3)
+    assert model.clock_site.utc_offset() == 3.0
+    assert model.clock_site.longitude() == pytest.approx(11.5, abs=1e-3)
     assert abs((datetime.fromisoformat(model.snapshot()["mount_utc"]) - now).total_seconds()) < 600
 
     # 3. GOTO (slew and track) to a point two hours east of the meridian.
-    target_ra = round(sky.ra_from_hour_angle(model.sidereal_time(), -2.0), 4)
+    target_ra = round(sky.ra_from_hour_angle(model.clock_site.sidereal_time(), -2.0), 4)
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={target_ra};40")
     wait_until(model.slewing, 10, "the slew to start")
@@ -112,7 +112,7 @@ def test_indi_lx200am5_drives_the_emulator(indi: IndiServer, emulator: EmulatorS
 
     # 6. Abort a GOTO: the slew ends short of its target.
     indi.set("ON_COORD_SET.TRACK=On")
-    far_ra = round(sky.ra_from_hour_angle(model.sidereal_time(), 3.0), 4)
+    far_ra = round(sky.ra_from_hour_angle(model.clock_site.sidereal_time(), 3.0), 4)
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={far_ra};10")
     wait_until(model.slewing, 10, "the second slew to start")
     indi.set("TELESCOPE_ABORT_MOTION.ABORT=On")

@@ -503,8 +503,8 @@ def test_mount_refuses_a_goto(rig_factory: RigFactory) -> None:
     verdict = Verdict("GOTO refused by the mount")
     main = rig.clients[0]
     main.command("tracking", Tracking="true")
-    rig.model.set_limits_enabled(True)
-    assert rig.model.set_lower_limit(30)
+    rig.model.flash.set_limits_enabled(True)
+    assert rig.model.flash.set_lower_limit(30)
     ra, dec = _altaz_target(rig, main, 20.0, 200.0)
     refused = main.put("slewtocoordinatesasync", RightAscension=ra, Declination=dec)
     verdict.check(refused.error_number == 0x501 and "refused" in refused.error_message,

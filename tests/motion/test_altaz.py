@@ -83,7 +83,7 @@ def _ra_at_ha(scope: AlpycaTelescope, ha: float) -> float:
 
 def test_alignment_mode_and_capabilities(rig: Rig) -> None:
     scope = rig.scope
-    assert rig.model.mode() is MountMode.ALTAZ
+    assert rig.model.flash.mode() is MountMode.ALTAZ
     assert scope.AlignmentMode == AlignmentModes.algAltAz
     assert scope.CanPulseGuide is True  # as timed moves: :Mg moves nothing in alt-az
     assert scope.CanSetPierSide is False
@@ -355,7 +355,7 @@ def test_mode_switch_warns_and_takes_effect_after_the_restart(rig: Rig) -> None:
     emulator.server.faults.reboot(0.3)
     wait_until(lambda: telescope.mount.link.generation > generation, 30, "the link to reconnect")
     wait_until(lambda: rig.scope.AlignmentMode == AlignmentModes.algGermanPolar, 30, "the new mode to be read")
-    assert rig.model.mode() is MountMode.EQUATORIAL
+    assert rig.model.flash.mode() is MountMode.EQUATORIAL
     assert rig.scope.CanPulseGuide is True
     assert rig.scope.SideOfPier != PierSide.pierUnknown or rig.model.pier_letter() == "N"
 

@@ -75,13 +75,13 @@ def _tracked_past_the_meridian(rig: Rig) -> tuple[float, float]:
     """Leave the mount tracking its target at HA +0.02 h on pierWest, as after tracking across the
     meridian: the GOTO runs under "track past 5°" on the mount (so it lands on pierWest), then the
     mount gets its configured setting back. Returns the target (RA, Dec)."""
-    configured = rig.model.meridian()
-    rig.model.set_meridian(MeridianSettings(False, True, 5))
+    configured = rig.model.flash.meridian()
+    rig.model.flash.set_meridian(MeridianSettings(False, True, 5))
     target_ra = sky.wrap_hours_24(rig.scope.SiderealTime - FLIP_HA)
     rig.scope.Tracking = True
     rig.scope.SlewToCoordinatesAsync(target_ra, DEC)
     rig.wait_at_rest("the slew to the target")
-    rig.model.set_meridian(configured)
+    rig.model.flash.set_meridian(configured)
     rig.model.goto_flip_at_meridian = rig.flips_at_meridian
     truth = rig.truth()
     assert truth["pier"] == "W" and float(truth["secondary_deg"]) < 90.0, truth  # type: ignore[arg-type]

@@ -47,10 +47,11 @@ def _fresh(mount: Mount, after: float, timeout: float = 5.0) -> MountState:
 
 
 def test_connect_pushes_site_and_time_with_the_mount_conventions(mount: Mount, model: MountModel) -> None:
-    assert model.latitude() == pytest.approx(SITE[0], abs=1 / 3600)
-    assert model.longitude() == pytest.approx(SITE[1], abs=1 / 3600)  # sent east-negative, read back east-positive
-    assert model.utc_offset() == pytest.approx(2.0)  # sent as :SG-02:00#
-    local = model.local_datetime()
+    assert model.clock_site.latitude() == pytest.approx(SITE[0], abs=1 / 3600)
+    # sent east-negative, read back east-positive
+    assert model.clock_site.longitude() == pytest.approx(SITE[1], abs=1 / 3600)
+    assert model.clock_site.utc_offset() == pytest.approx(2.0)  # sent as :SG-02:00#
+    local = model.clock_site.local_datetime()
     expected = model.clock.now().replace(tzinfo=None) + timedelta(hours=2)
     assert abs((local - expected).total_seconds()) < 2.0
     state = mount.state
@@ -66,7 +67,7 @@ def test_poller_publishes_fresh_state_at_home(mount: Mount) -> None:
 
 
 def test_goto_lands_and_tracks(mount: Mount, model: MountModel) -> None:
-    lst = model.sidereal_time()
+    lst = model.clock_site.sidereal_time()
     target = ((lst - 1.0) % 24.0, 30.0)
     mount.goto(*target)
     busy = mount.wait_for(lambda s: bool(s.status and s.status.slewing), 5.0)
@@ -87,15 +88,15 @@ def test_after_a_reboot_time_and_site_are_pushed_before_the_next_goto(mount: Mou
     reconnected = mount.wait_for(lambda s: s.link is not None and s.link.generation > generation
                                  and s.link.connected and s.initialised, 10.0)
     assert reconnected is not None, "the link did not come back and re-initialise"
-    assert model.latitude() == pytest.approx(SITE[0], abs=1 / 3600)
-    lst = model.sidereal_time()
+    assert model.clock_site.latitude() == pytest.approx(SITE[0], abs=1 / 3600)
+    lst = model.clock_site.sidereal_time()
     mount.goto((lst - 2.0) % 24.0, 20.0)  # would be e7# if time and site had not been pushed again
     assert mount.wait_for(lambda s: bool(s.status and s.status.slewing), 5.0) is not None
     mount.stop()
 
 
 def test_pulse_moves_the_estimate_by_exactly_the_commanded_amount(mount: Mount, model: MountModel) -> None:
-    lst = model.sidereal_time()
+    lst = model.clock_site.sidereal_time()
     mount.goto((lst - 2.0) % 24.0, 20.0)
     mount.wait_for(lambda s: bool(s.status and s.status.slewing), 5.0)
     mount.wait_for(lambda s: bool(s.status and not s.status.slewing and s.tracking and s.tracking.on), 60.0)

@@ -1156,7 +1156,7 @@ def test_destination_side_of_pier_follows_the_meridian_setting(
     api = Api(f"http://127.0.0.1:{server.port}").connect()
     emulator = server.emulators[0]
     assert emulator is not None
-    assert emulator.model.meridian() == MeridianSettings(False, track_past, limit)
+    assert emulator.model.flash.meridian() == MeridianSettings(False, track_past, limit)
     ra, dec = api.ra_at_ha(ha), 20.0
     predicted = api.value("DestinationSideOfPier", RightAscension=ra, Declination=dec)
     api.ok("SlewToCoordinatesAsync", RightAscension=ra, Declination=dec)
@@ -1518,7 +1518,7 @@ def test_utc_date_write_reads_back(server: AlpacaZwoServer, api: Api, model: Mou
     elapsed = mount_seconds(server) - started
     assert timedelta(seconds=-0.01) <= read - written <= timedelta(seconds=elapsed + 0.01)
     # The mount itself now runs on that time: its sidereal time matches the server's.
-    assert abs(wrap12(model.sidereal_time() - api.value("SiderealTime"))) < 2.0 / 3600.0
+    assert abs(wrap12(model.clock_site.sidereal_time() - api.value("SiderealTime"))) < 2.0 / 3600.0
 
 
 @pytest.mark.parametrize("text", ["9999-12-31T23:59:59.9999999Z", "0001-01-01T00:00:00Z", "1990-06-01T00:00:00Z",
@@ -1533,7 +1533,7 @@ def test_utc_date_the_mount_cannot_hold(api: Api, model: MountModel, text: str) 
     ra = api.ra_at_ha(-2.0)
     assert api.value("DestinationSideOfPier", RightAscension=ra, Declination=40.0) == 1
     if reply.error == OK:
-        assert abs(wrap12(model.sidereal_time() - api.value("SiderealTime"))) < 2.0 / 3600.0, (
+        assert abs(wrap12(model.clock_site.sidereal_time() - api.value("SiderealTime"))) < 2.0 / 3600.0, (
             "the mount and the server now disagree about the sidereal time")
     else:
         assert abs((parse_utc(api.value("UTCDate")) - datetime.now(timezone.utc)).total_seconds()) < 3600
@@ -1563,8 +1563,8 @@ def test_site_reads_back_exactly_and_reaches_the_mount(api: Api, model: MountMod
         api.ok(name, **{name: value})
     for name, value in values.items():
         assert api.value(name) == value, name
-    assert model.latitude() == pytest.approx(values["SiteLatitude"], abs=1.0 * ARCSEC)
-    assert model.longitude() == pytest.approx(values["SiteLongitude"], abs=1.0 * ARCSEC)
+    assert model.clock_site.latitude() == pytest.approx(values["SiteLatitude"], abs=1.0 * ARCSEC)
+    assert model.clock_site.longitude() == pytest.approx(values["SiteLongitude"], abs=1.0 * ARCSEC)
     for name, value in [("SiteLatitude", 90.0), ("SiteLatitude", -90.0), ("SiteLongitude", 180.0),
                         ("SiteLongitude", -180.0), ("SiteElevation", -300.0), ("SiteElevation", 10000.0)]:
         api.ok(name, **{name: value})  # the range ends are valid
@@ -1632,7 +1632,7 @@ def test_equatorial_system_and_alignment_mode(api: Api) -> None:
 
 
 def test_alignment_mode_follows_the_mount_mode(url: str, model: MountModel) -> None:
-    model.request_mode(MountMode.ALTAZ)
+    model.flash.request_mode(MountMode.ALTAZ)
     model.power_cycle()  # the mode takes effect at power-up, before the server connects
     api = Api(url).connect()
     assert api.value("AlignmentMode") == 0

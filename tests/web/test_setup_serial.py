@@ -124,12 +124,12 @@ def test_settings_get_shows_changes_made_through_the_server(rig: tuple[AlpacaZwo
     server, client = rig
     model = _emulator(server).model
     _post(client, {"buzzer": 0, "mount_limits": {"upper": 85}})
-    assert model.buzzer() == 0 and model.altitude_limits()[1] == 85  # the mount has them
+    assert model.flash.buzzer() == 0 and model.flash.altitude_limits()[1] == 85  # the mount has them
     view = _mount_view(client)
     assert view["buzzer"] == 0 and view["upper_limit"] == 85
     client.command("action", Action="zwo:BuzzerVolume", Parameters='{"volume": 2}')
     client.command("action", Action="zwo:HeavyDutyMode", Parameters='{"enabled": true}')
-    assert model.buzzer() == 2 and model.max_speed() == 720
+    assert model.flash.buzzer() == 2 and model.flash.max_speed() == 720
     view = _mount_view(client)
     assert view["buzzer"] == 2 and view["heavy_duty"] is True
     client.command("action", Action="zwo:AltitudeLimits", Parameters='{"lower": 12}')
@@ -151,7 +151,7 @@ def test_change_behind_the_servers_back_shows_within_the_refresh_period(
             chunk = app.recv(64)
             assert chunk, reply
             reply += chunk
-    assert _emulator(server).model.buzzer() == 0
+    assert _emulator(server).model.flash.buzzer() == 0
     view = wait_until(lambda: (v := _mount_view(client))["buzzer"] == 0 and v, timeout=1.5 + 2 * mount.poll_slow_s + 3,
                       what="the app's change on the page")
     assert view["upper_limit"] == 75
@@ -168,6 +168,6 @@ def test_raw_command_through_the_server_shows_at_the_next_poll(server_factory: S
     assert mount.settings_cache.refresh_s == 60.0
     assert _mount_view(client)["heavy_duty"] is False
     client.command("commandblind", Command=":SRl720#", Raw="true")
-    assert _emulator(server).model.max_speed() == 720
+    assert _emulator(server).model.flash.max_speed() == 720
     wait_until(lambda: _mount_view(client)["heavy_duty"] is True, timeout=2 * mount.poll_slow_s + 3,
                what="the raw command's change on the page")

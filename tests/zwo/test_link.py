@@ -55,7 +55,7 @@ def test_every_reply_kind_is_read_to_its_end(link: Link) -> None:
 
 
 def test_a_refused_goto_reads_the_whole_error_and_stays_in_step(link: Link, model: MountModel) -> None:
-    lst = model.sidereal_time()
+    lst = model.clock_site.sidereal_time()
     link.execute(p.set_target_ra((lst + 12) % 24))  # opposite the meridian: below the horizon
     link.execute(p.set_target_dec(-60.0))
     with pytest.raises(MountReplyError) as info:

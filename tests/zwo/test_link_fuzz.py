@@ -137,13 +137,13 @@ PREFIX = st.binary(min_size=1, max_size=6).filter(lambda b: b":" not in b and b"
 @pytest.fixture(scope="module")
 def split_link() -> Iterator[tuple[Link, JunkMount]]:
     mount = JunkMount()
-    mount.responder.model.set_latitude(51.5)
-    mount.responder.model.set_longitude(0.0)
+    mount.responder.model.clock_site.set_latitude(51.5)
+    mount.responder.model.clock_site.set_longitude(0.0)
     link = Link(f"socket://127.0.0.1:{mount.port}", timeout=0.25)
     link.open()
     link.expect_probe_reply("AM5")
     # Target below the horizon: every :MS# is refused with e5#.
-    lst = mount.responder.model.sidereal_time()
+    lst = mount.responder.model.clock_site.sidereal_time()
     link.execute(p.set_target_ra((lst + 12.0) % 24.0))
     link.execute(p.set_target_dec(-60.0))
     yield link, mount
