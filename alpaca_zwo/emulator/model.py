@@ -23,13 +23,16 @@ arcsecond.
 ``MountModel`` owns four parts, one module each, and has the commands that use them:
 ``model.flash`` (``flash.FlashSettings``: what the mount keeps in flash), ``model.clock_site``
 (``clocksite.ClockAndSite``: the mount's clock and site), ``model.mechanics`` (``physics.Mechanics``:
-the axes and what drives them) and ``altaz.AltAzRules`` (the alt-az GOTO and tracking rules).
+the axes and what drives them) and ``model.altaz_rules`` (``altaz.AltAzRules``: the alt-az GOTO and
+tracking rules).
 Clients reach the flash settings and the clock and site through their parts
 (``model.flash.set_meridian(...)``, ``model.clock_site.set_date(...)``).
 
 Lock: one, ``MountModel._lock`` (an RLock), owned by the model. ``flash`` and ``clock_site`` are lent
 it, because their public methods are called directly (by the responder, the tests); the mechanics
-and the alt-az rules have no lock of their own and are called only with it held.
+and the alt-az rules have no lock of their own and are called only with it held. The parts never
+call back into the model: ``flash`` and ``clock_site`` get ``advance`` (the mechanics' integration,
+returning the emulated seconds) as a callable, the others get the parts they read.
 
 In alt-az mode (``:AA#``, in effect after a power cycle) the same axes are azimuth and altitude;
 ``altaz`` says what moves how. Not modelled (see the README): southern-hemisphere homes (home
@@ -118,7 +121,6 @@ class MountModel:
         if site is not None:
             persist.latitude, persist.longitude = float(site[0]), float(site[1])
         self.faults = faults if faults is not None else Faults()
-        self.faults.add_listener(self._on_fault)
         # The parts start powered up; ``_advance`` reaches the mechanics only once they exist.
         self.power_ups = 1
         start = clock.seconds()
@@ -126,6 +128,7 @@ class MountModel:
         self.clock_site = ClockAndSite(flash=self.flash, lock=self._lock, advance=self._advance, t=start)
         self.mechanics = Mechanics(clock=clock, accel=accel, flash=self.flash, site=self.clock_site, t=start)
         self.altaz_rules = AltAzRules(mechanics=self.mechanics, site=self.clock_site, flash=self.flash)
+        self.faults.add_listener(self._on_fault)
         if initialized:
             self.initialize()
 
