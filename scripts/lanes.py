@@ -1,12 +1,18 @@
-"""The two lanes of a whole-suite run (scripts/run-tests with no test paths), side by side on two cores.
+"""The lanes of a whole-suite run (scripts/run-tests with no test paths): three pytest processes side by side.
 
-Lane ``platform`` is the system tests (fresh Debian roots, the container image, wheels, the start-at-boot
-unit): they wait on dpkg, pip and podman, never time the server, and have minutes of slack; they run in the
-background at a lower CPU and disk priority. Lane ``main`` is everything else at normal priority, with the
-ConformU runs named last (pytest runs its arguments in order), so they mostly run after the platform lane
-has finished. ``tests/test_ci_lanes.py`` checks that the two lanes together collect exactly the whole suite.
+The suite waits far more than it computes (emulated slews, real-time pulses, ConformU's timed checks:
+about 6 CPU minutes in a 47-minute serial run on two cores), so independent groups overlap well:
 
-    python3 scripts/lanes.py platform|main    # one argument per line, for run-tests
+- ``main``: every test folder and file but the two below, in the foreground at normal priority.
+- ``conformance``: the ConformU reproduction (about 17 minutes, most of it waiting on emulated time),
+  in the background at normal priority: its timed checks must not be starved.
+- ``platform``: the system tests (fresh Debian roots, the container image, wheels, the start-at-boot unit):
+  they wait on dpkg, pip and podman, never time the server and have minutes of slack, so they run in
+  the background at a lower CPU and disk priority.
+
+``tests/test_ci_lanes.py`` checks that the lanes together collect exactly the whole suite, each test once.
+
+    python3 scripts/lanes.py main|conformance|platform    # one path argument per line, for run-tests
 """
 
 from __future__ import annotations
@@ -15,22 +21,22 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-#: Run in the background lane, at lower priority.
-BACKGROUND = ("tests/platform",)
-#: Run at the end of the main lane: long and CPU-heavy (ConformU), best alone.
-LAST = ("tests/conformance",)
+#: lane -> the entries of tests/ it runs; ``main`` takes every other entry.
+SEPARATE = {"conformance": ("tests/conformance",), "platform": ("tests/platform",)}
+LANES = ("main", *SEPARATE)
 
 
 def lanes(root: Path = ROOT) -> dict[str, list[str]]:
-    """Each lane's pytest path arguments: every entry of tests/ in exactly one lane, sorted, LAST at the end."""
+    """Each lane's pytest path arguments: every entry of tests/ that holds tests, in exactly one lane."""
     tests = root / "tests"
     entries = sorted(p.relative_to(root).as_posix() for p in tests.iterdir()
                      if (any(p.rglob("test_*.py")) if p.is_dir() else p.match("test_*.py")))
-    main = [e for e in entries if e not in BACKGROUND and e not in LAST] + [e for e in LAST if e in entries]
-    return {"platform": [e for e in entries if e in BACKGROUND], "main": main}
+    taken = {entry for paths in SEPARATE.values() for entry in paths}
+    found = {lane: [e for e in entries if e in paths] for lane, paths in SEPARATE.items()}
+    return {"main": [e for e in entries if e not in taken], **found}
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 2 or sys.argv[1] not in ("platform", "main"):
-        sys.exit("usage: python3 scripts/lanes.py platform|main")
+    if len(sys.argv) != 2 or sys.argv[1] not in LANES:
+        sys.exit(f"usage: python3 scripts/lanes.py {'|'.join(LANES)}")
     print("\n".join(lanes()[sys.argv[1]]))
