@@ -35,8 +35,7 @@ class FlashSettings:
         self._firmware = firmware
         self._lock = lock
         self._advance = advance
-        self.mode_in_effect = persist.mode
-        self.ble_suffix = persist.ble_suffix
+        self.power_up()
 
     def power_up(self) -> None:
         """The stored mode and Bluetooth suffix take effect (callers hold the lock)."""
