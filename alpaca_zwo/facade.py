@@ -78,6 +78,8 @@ class AlpacaZwoServer(Protocol):
     @property
     def emulators(self) -> Sequence[object | None]: ...
 
+    def bridges(self) -> Mapping[str, StatusSource]: ...
+
 
 class FacadeProvider(Protocol):
     """What ``setup_routes`` is given: anything that can hand out the server's facade."""
@@ -431,10 +433,8 @@ class ServerFacade:
 
     def bridges(self) -> list[dict[str, Any]]:
         """One status dict per running bridge, each with its ``name``; a failing status() shows its error."""
-        provider = getattr(self._server, "bridges", None)
-        found: Mapping[str, StatusSource] = provider() if callable(provider) else {}
         rows = []
-        for name, bridge in found.items():
+        for name, bridge in self._server.bridges().items():
             try:
                 status = dict(bridge.status())
             except Exception as exc:  # a bridge's bug must not take the status feed down with it
