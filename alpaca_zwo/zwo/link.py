@@ -24,6 +24,16 @@ GOTO's ``0`` followed by ``e5#``) is *ambiguous*: the link resynchronises and ra
 :class:`~alpaca_zwo._exceptions.AmbiguousReply`, and the caller re-reads the mount's state
 instead of assuming success.
 
+What the link promises about a one-byte reply, and no more (the protocol has no checksum and no
+framing for these replies, so nothing stronger is possible): every byte that reaches the host
+within the *trailing window* after the link has read that byte -- ``TRAILING_QUIET_S`` (a GOTO's
+``GOTO_QUIET_S``) plus three byte times at the link's baud -- makes the reply ambiguous. The
+window is measured from the link's own read, which never comes before the byte arrived, so a
+busy CPU only lengthens it; the window is always checked once more after it has ended, so an
+oversleeping thread cannot skip its last moment. A byte arriving later than the window cannot be
+told from noise ahead of the next reply: the next exchange reads it as an implausible or
+multiple reply, marks the line suspect and resynchronises before anything else is sent.
+
 When the port vanishes (USB unplugged, WiFi dropped, mount rebooted) the link reconnects in the
 background with backoff and bumps :attr:`Link.generation`, which tells the mount layer that the
 mount may have lost its time and site.
@@ -34,7 +44,6 @@ from __future__ import annotations
 import collections
 import contextlib
 import logging
-import re
 import socket
 import threading
 import time
@@ -391,17 +400,20 @@ class Link:
         return reply, written
 
     def _trailing_bytes(self, quiet_s: float) -> bool:
-        """Whether bytes arrive right behind a reply (within ``quiet_s`` and a few byte times)."""
+        """Whether bytes arrive right behind a reply: the trailing window of the module docstring.
+
+        The input is looked at once more after the window has ended, however late this thread
+        wakes, so a byte that arrived inside the window is never missed under CPU load."""
         port = self._port
-        if port.in_waiting:
-            return True
         byte_time = 10.0 / self.baud if self.baud else 0.0
         deadline = time.monotonic() + quiet_s + 3 * byte_time
-        while time.monotonic() < deadline:
+        while True:
             if port.in_waiting:
                 return True
-            time.sleep(0.0005)
-        return False
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            time.sleep(min(0.0005, remaining))
 
     def _read_reply(self, kind: protocol.ReplyKind, deadline: float) -> str:
         if kind is protocol.ReplyKind.NONE:
@@ -488,7 +500,7 @@ class Link:
             if chunk == b"#":
                 text = data.decode("latin-1")
                 if self._probe_reply is None:
-                    if _MODEL_RE.fullmatch(text):
+                    if protocol.MODEL_NAME_RE.fullmatch(text[:-1]):
                         self._probe_reply = text  # the first probe teaches us the model name
                         return text
                 elif text == self._probe_reply:
@@ -575,7 +587,6 @@ class Link:
         )
 
 
-_MODEL_RE = re.compile(r"[A-Z]{2}\d{1,2}[A-Z]{0,2}#")
 
 
 def _plausible(req: protocol.Request, reply: str) -> bool:

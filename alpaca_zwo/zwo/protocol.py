@@ -166,6 +166,18 @@ def _text(reply: str) -> str:
     return reply[:-1] if reply.endswith("#") else reply
 
 
+#: A model name as ``:GVP#`` gives it (``AM5``, ``AM5N``, ``AM3``, ``AM7``): what the link's probe
+#: expects, and the one shape a model reply may have, so noise in front of it is never a model.
+MODEL_NAME_RE = re.compile(r"[A-Z]{2}\d{1,2}[A-Z]{0,2}")
+
+
+def _model_name(reply: str) -> str:
+    text = _text(reply)
+    if not MODEL_NAME_RE.fullmatch(text):
+        raise ProtocolError(f"not a model name: {reply!r}")
+    return text
+
+
 def _pair(first: Callable[[str], Any], second: Callable[[str], Any]) -> Callable[[str], tuple[Any, Any]]:
     def parse(reply: str) -> tuple[Any, Any]:
         parts = _text(reply).split("&")
@@ -353,7 +365,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("GBu", _T, "get buzzer", parse=_int_text),
     Command("GU", _T, "get status flags", parse=parse_status),
     Command("GV", _T, "get firmware version", parse=_text),
-    Command("GVP", _T, "get model", parse=_text),
+    Command("GVP", _T, "get model", parse=_model_name),
     Command("GVT", _T, "get firmware compile time", parse=_text),
     Command("GBl", _T, "get Bluetooth name", parse=_text, source="field"),
     Command("SBl", _C, "set Bluetooth name suffix", r"[A-Za-z0-9]{1,12}", source="field"),
