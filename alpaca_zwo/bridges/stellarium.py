@@ -343,9 +343,9 @@ class StellariumBridge:
                 return
             address = f"{peer[0]}:{peer[1]}"
             if not self.allowlist.allows(peer[0]):
-                sock.close()
                 self._turn_away("network", address, f"{peer[0]} is not in stellarium.allowed_networks "
                                                     f"(add its network on the setup page)")
+                sock.close()
                 continue
             if len(self._clients) >= self.max_clients:
                 log.warning("Stellarium %s refused: already %d connected", address, len(self._clients))
@@ -476,7 +476,7 @@ class StellariumBridge:
                 self._selector.modify(client.sock, selectors.EVENT_READ, client)
 
     def _remove(self, client: _Client) -> int | None:
-        """Forget and close a connection: the clients still connected, or None if it was already gone."""
+        """Forget a connection (the caller closes it): the clients still connected, or None if already gone."""
         with self._lock:
             if self._clients.get(client.sock.fileno()) is not client:
                 return None
@@ -484,7 +484,6 @@ class StellariumBridge:
             remaining = sum(1 for c in self._clients.values() if not c.pending)
         with contextlib.suppress(KeyError, ValueError):
             self._selector.unregister(client.sock)
-        client.sock.close()
         return remaining
 
     def _close_pending(self, client: _Client, reason: str | None) -> None:
@@ -495,15 +494,17 @@ class StellariumBridge:
             log.debug("Stellarium port: %s closed before its first message", client.address)
         else:
             self._turn_away("protocol", client.address, reason)
+        client.sock.close()
 
     def _drop(self, client: _Client, reason: str, *, level: int) -> None:
         if client.pending:
-            self._remove(client)
+            self._close_pending(client, None)
             return
         remaining = self._remove(client)
         if remaining is None:
             return
         log.log(level, "Stellarium %s %s (%d still connected)", client.address, reason, remaining)
+        client.sock.close()
         if remaining == 0:
             self._set_hold(False)
 

@@ -229,9 +229,9 @@ class ZwoPortBridge:
                 continue
             address = f"{peer[0]}:{peer[1]}"
             if not self.allowlist.allows(peer[0]):
-                _shutdown(sock)
                 self._turn_away("network", address, f"{peer[0]} is not in zwo_port.allowed_networks "
-                                f"(add its network on the setup page)")
+                                                    f"(add its network on the setup page)")
+                _shutdown(sock)
                 continue
             self._admit(sock, address)
 
