@@ -77,7 +77,7 @@ HOLD_RETRY_S = 5.0  # how soon to retry connecting the Telescope after a failure
 #: writes its request at once).
 QUIET_OPENING_S = 1.0
 #: A pending connection that began a message but did not finish it in this time is closed.
-OPENING_TIMEOUT_S = 10.0
+OPENING_TIMEOUT_S = 5.0
 
 _WIRE_TURN = 1 << 32  # 24 h of RA, 360 degrees
 _DEC_QUARTER = 1 << 30  # 90 degrees of Dec
