@@ -126,3 +126,35 @@ def test_a_pages_no_cors_posts_to_the_bridge_ports_change_nothing(
         wait_until(lambda: model.snapshot()["moves_deg_s"][0] is not None, TIMEOUT, "the driver's move")
         sock.sendall(b":Q#")
     wait_until(lambda: model.snapshot()["tracking"] is True, TIMEOUT, "the driver's tracking")
+
+
+def test_the_page_shows_and_edits_the_bridge_networks(browser_factory: Callable[..., Any],
+                                                      server_factory: Callable[..., AlpacaZwoServer]) -> None:
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    server = server_factory(make_settings(zwo_port=ZwoPortSettings(enabled=True, host="127.0.0.1", port=0)))
+    driver = browser_factory()
+    driver.get(f"http://127.0.0.1:{server.port}/setup")
+    WebDriverWait(driver, 15).until(lambda d: d.find_element(By.ID, "link-pill").text.startswith("mount:"))
+    zwo_field, stellarium_field = (driver.find_element(By.ID, i) for i in ("n-zwo-networks", "n-stellarium-networks"))
+    assert zwo_field.get_attribute("value") == "local" == stellarium_field.get_attribute("value")
+    local = driver.find_element(By.ID, "networks-local").text
+    assert "127.0.0.0/8" in local and "::1/128" in local
+
+    zwo_field.clear()
+    zwo_field.send_keys("local\n10.8.0.0/24")
+    stellarium_field.clear()
+    stellarium_field.send_keys("192.168.1.20")
+    driver.find_element(By.CSS_SELECTOR, "#form-networks button[type=submit]").click()
+    WebDriverWait(driver, TIMEOUT).until(lambda d: "Bridge networks saved" in d.find_element(By.ID, "messages").text)
+    assert server.settings.zwo_port.allowed_networks == ("local", "10.8.0.0/24")
+    assert server.settings.stellarium.allowed_networks == ("192.168.1.20",)
+    assert "10.8.0.0/24" in server.zwo_port.status()["allowed_networks"]  # the running bridge follows at once
+
+    zwo_field.clear()
+    zwo_field.send_keys("not-a-network")
+    driver.find_element(By.CSS_SELECTOR, "#form-networks button[type=submit]").click()
+    WebDriverWait(driver, TIMEOUT).until(lambda d: "'not-a-network' is not a network" in
+                                         d.find_element(By.ID, "messages").text)
+    assert server.settings.zwo_port.allowed_networks == ("local", "10.8.0.0/24")
