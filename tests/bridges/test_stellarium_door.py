@@ -97,9 +97,9 @@ def test_allowed_networks_refuse_at_the_door_and_the_page_changes_them_at_once(s
                                                            allowed_networks=("192.0.2.0/24",)))
     server = server_factory(settings)
     port = server.stellarium.port
-    with socket.create_connection(("127.0.0.1", port), timeout=TIMEOUT) as sock:
-        with contextlib.suppress(ConnectionResetError):
-            assert sock.recv(64) == b""  # closed unread: no position
+    with socket.create_connection(("127.0.0.1", port), timeout=TIMEOUT) as sock, \
+            contextlib.suppress(ConnectionResetError):
+        assert sock.recv(64) == b""  # closed unread: no position
     status = server.stellarium.status()
     assert status["turned_away"] == 1 and status["clients"] == []
     assert "127.0.0.1 is not in stellarium.allowed_networks" in status["last_turned_away"]["message"]

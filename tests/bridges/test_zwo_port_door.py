@@ -14,11 +14,11 @@ import contextlib
 import logging
 import socket
 import ssl
-import tomllib
 from pathlib import Path
 
 import pytest
 import requests
+import tomllib
 
 from alpaca_zwo.bridges.zwo_port import BRIDGE_KEY
 from alpaca_zwo.config.settings import EmulatorSettings, ZwoPortSettings
@@ -40,19 +40,27 @@ def server(server_factory: ServerFactory) -> AlpacaZwoServer:
                              zwo_port=ZwoPortSettings(enabled=True, host="127.0.0.1", port=0))
     server = server_factory(settings)
     # The settings file exists (the attack's :St/:Sg would rewrite it): its bytes are the reference.
-    reply = requests.post(f"http://127.0.0.1:{server.port}/setup/api/server", json={"location": "backyard"},
-                          headers={"X-Alpaca-Zwo": "1"}, timeout=TIMEOUT)
-    assert reply.status_code == 200, reply.text
+    write_settings_file(server)
     return server
 
 
-@pytest.fixture
-def alpaca(server: AlpacaZwoServer) -> AlpacaClient:
+def write_settings_file(server: AlpacaZwoServer) -> None:
+    reply = requests.post(f"http://127.0.0.1:{server.port}/setup/api/server", json={"location": "backyard"},
+                          headers={"X-Alpaca-Zwo": "1"}, timeout=TIMEOUT)
+    assert reply.status_code == 200, reply.text
+
+
+def hold_connected(server: AlpacaZwoServer) -> AlpacaClient:
     """An Alpaca client holding the mount connected with tracking off: a command that got through would show."""
     client = AlpacaClient(server.port, timeout=TIMEOUT, call_timeout=TIMEOUT)
     client.command("connected", Connected="true")
     client.command("tracking", Tracking="false")
     return client
+
+
+@pytest.fixture
+def alpaca(server: AlpacaZwoServer) -> AlpacaClient:
+    return hold_connected(server)
 
 
 def http_request(method: str, port: int, body: bytes = ATTACK) -> bytes:

@@ -21,12 +21,11 @@ from typing import Any
 
 import pytest
 
-import requests
-
 from alpaca_zwo.config.settings import StellariumSettings, ZwoPortSettings
 from alpaca_zwo.server import AlpacaZwoServer
+from tests.bridges.test_zwo_port_door import hold_connected, write_settings_file
 from tests.conftest import make_settings
-from tests.support import AlpacaClient, wait_until
+from tests.support import wait_until
 
 TIMEOUT = 10
 EVIL = "evil.example"
@@ -86,12 +85,8 @@ def test_a_pages_no_cors_posts_to_the_bridge_ports_change_nothing(
         zwo_port=ZwoPortSettings(enabled=True, host="127.0.0.1", port=0),
         stellarium=StellariumSettings(enabled=True, host="127.0.0.1", port=0, equinox="JNow")))
     model = server.emulators[0].model  # type: ignore[union-attr]
-    alpaca = AlpacaClient(server.port, timeout=TIMEOUT, call_timeout=TIMEOUT)
-    alpaca.command("connected", Connected="true")  # a connected mount: a command that got through would move it
-    alpaca.command("tracking", Tracking="false")
-    reply = requests.post(f"http://127.0.0.1:{server.port}/setup/api/server", json={"location": "backyard"},
-                          headers={"X-Alpaca-Zwo": "1"}, timeout=TIMEOUT)
-    assert reply.status_code == 200, reply.text
+    hold_connected(server)
+    write_settings_file(server)
     config = tmp_path / "config.toml"
     before = config.read_bytes()
     site = (model.snapshot()["latitude"], model.snapshot()["longitude_east"])
