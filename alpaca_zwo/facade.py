@@ -405,6 +405,12 @@ class ServerFacade:
         """The names the DNS-rebinding guard allows without server.allowed_hosts (for the page)."""
         return self._server.host_guard.policy.always_allowed()
 
+    def local_networks(self) -> list[str]:
+        """What "local" in a bridge's allowed_networks admits now: loopback and this machine's networks."""
+        from .alpaca.local_addresses import local_networks
+
+        return [str(network) for network in local_networks()]
+
     @property
     def port(self) -> int:
         return self._server.port

@@ -18,7 +18,7 @@ from . import __version__
 from .alpaca.app import create_app
 from .alpaca.hosts import HostGuard
 from .alpaca.http import HttpServer
-from .alpaca.local_addresses import page_urls
+from .alpaca.local_addresses import local_networks, page_urls
 from .alpaca.management import ServerInfo
 from .clients import ClientRegistry
 from .config.settings import DeviceSettings, Settings
@@ -190,7 +190,7 @@ class AlpacaZwoServer:
 
         port = config.port if self.overrides.zwo_port is None else self.overrides.zwo_port
         host = self.overrides.host or config.host  # --host binds every listener to that address
-        bridge = ZwoPortBridge(self.telescopes[0], host=host, port=port)
+        bridge = ZwoPortBridge(self.telescopes[0], host=host, port=port, local_networks=local_networks)
         try:
             bridge.start()
         except OSError as exc:  # the port is taken: Alpaca still serves, the log says why INDI cannot connect
@@ -208,7 +208,8 @@ class AlpacaZwoServer:
         port = config.port if self.overrides.stellarium_port is None else self.overrides.stellarium_port
         host = self.overrides.host or config.host  # --host binds every listener to that address
         try:
-            bridge = StellariumBridge(self.telescopes[0], host=host, port=port, equinox=config.equinox)
+            bridge = StellariumBridge(self.telescopes[0], host=host, port=port, equinox=config.equinox,
+                                      local_networks=local_networks)
         except ValueError as exc:  # J2000 without pyerfa (32-bit ARM): say what to do, keep serving Alpaca
             log.error("Stellarium server not started: %s", exc)
             return

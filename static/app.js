@@ -488,10 +488,17 @@
     return clients.length ? clients.map((c) => (c && typeof c === "object" ? c.address || JSON.stringify(c) : String(c))).join(", ") : "none";
   }
 
+  // Connections a bridge closed at the door (a network not allowed, not its protocol): how many, the last.
+  function turnedAway(b) {
+    const last = b.last_turned_away;
+    if (!last) return "\u2013";
+    return b.turned_away + " turned away; last " + (last.client || last.address) + ": " + (last.message || last.reason);
+  }
+
   function renderBridges(bridges) {
     const rows = bridges.map((b) => ({
       cells: [b.name, b.enabled === false ? "no" : "yes", b.port === undefined || b.port === null ? "\u2013" : String(b.port),
-        programs(b.clients), brief(b.last_command), brief(b.last_error)],
+        programs(b.clients || b.programs), brief(b.last_command), b.last_error ? brief(b.last_error) : turnedAway(b)],
     }));
     fillTable("bridges", 6, rows, "none running (Stellarium and shared ZWO port are set in the config file)");
   }
@@ -780,6 +787,22 @@
         () => post("/setup/api/server", { allowed_hosts: names }));
       if (result) fillServer(result);
     });
+    $("form-networks").addEventListener("submit", async (ev) => {
+      ev.preventDefault();
+      const lines = (id) => $(id).value.split(/[\s,]+/).filter((n) => n);
+      const networks = { zwo_port: lines("n-zwo-networks"), stellarium: lines("n-stellarium-networks") };
+      const result = await run("Bridge networks saved (in effect now).",
+        () => post("/setup/api/server", { allowed_networks: networks }));
+      if (result) fillServer(result);
+    });
+  }
+
+  // Who may connect to the bridges: each bridge's list, and what "local" means on this machine now.
+  function fillNetworks(info) {
+    const networks = info.allowed_networks || {};
+    $("n-zwo-networks").value = (networks.zwo_port || []).join("\n");
+    $("n-stellarium-networks").value = (networks.stellarium || []).join("\n");
+    $("networks-local").textContent = (info.local_networks || []).join(", ");
   }
 
   // The DNS-rebinding guard: the names added, those always allowed, and a warning when it is off.
@@ -800,6 +823,7 @@
     $("n-mdns").checked = info.configured.mdns;
     $("n-location").value = info.location;
     fillHosts(info);
+    fillNetworks(info);
     setText("server-line", info.manufacturer + " \u00b7 version " + info.version + " \u00b7 port " + info.port +
       (info.discovery_port ? " \u00b7 discovery on UDP " + info.discovery_port : ""), "sub");
     setText("server-info", "Alpaca API: http://" + location.host + "/api/v1/telescope/" + device + "/ \u00b7 " +

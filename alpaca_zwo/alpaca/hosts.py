@@ -6,21 +6,30 @@ then treats the server as that site: its requests carry ``Host: evil.example`` a
 the page cannot change is the *name*: a request naming a host that is not one of this machine's
 names is refused. Allowed without configuration are the names a person or a program really uses
 for this machine: IP literals, ``localhost``, the machine's hostname and its short form,
-``<short>.local`` (mDNS), ``<short>.<any domain>`` (router names such as ``astropi.lan``), the
-``<short>-alpaca-zwo.local`` name the mDNS advertiser publishes, and the names in
-``server.allowed_hosts``, where ``*`` turns the check off.
+``<short>.local`` (mDNS), the ``<short>-alpaca-zwo.local`` name the mDNS advertiser publishes,
+``<short>.<domain>`` for the local suffixes home routers hand out (:data:`LOCAL_SUFFIXES`:
+``astropi.lan``, ``astropi.home.arpa``) and for the domains of this machine's resolver search list
+(``astropi.fritz.box`` when the router's DHCP gives ``fritz.box``), and the names in
+``server.allowed_hosts``, where ``*`` turns the check off. ``<short>`` under any other domain is
+refused: a rebinding page at ``raspberrypi.attacker.example`` carries the default hostname of a Pi.
 
-Pure apart from reading the hostname once. The HTTP side (which requests are judged, the 403)
-lives in :mod:`alpaca_zwo.alpaca.app`.
+Pure apart from reading the hostname once and the resolver's search list (``/etc/resolv.conf``'s
+``search`` and ``domain`` lines; on Windows the TCP/IP parameters in the registry; again at most once
+a minute, so a search list that DHCP set after the start counts). The HTTP side (which requests are
+judged, the 403) lives in :mod:`alpaca_zwo.alpaca.app`.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import ipaddress
 import re
 import socket
-from collections.abc import Iterable
+import sys
+import time
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
 from urllib.parse import urlsplit
 
 #: The allowlist entry that turns the check off.
@@ -30,6 +39,11 @@ MDNS_SUFFIX = "-alpaca-zwo.local"
 #: Decisions remembered per (Host, Origin) pair; a flood of invented names only refills it.
 CACHE_SIZE = 256
 _SHOWN_MAX = 80
+#: Domains under which ``<short>.<domain>`` is this machine: home routers' and RFC 8375/6762 local names.
+LOCAL_SUFFIXES = ("local", "lan", "home", "home.arpa", "internal", "localdomain")
+#: How often the resolver's search list is read again.
+SEARCH_LIST_TTL_S = 60.0
+RESOLV_CONF = Path("/etc/resolv.conf")
 
 
 @functools.cache
@@ -84,6 +98,54 @@ def shown(value: str) -> str:
     return text + ("..." if len(value) > _SHOWN_MAX else "")
 
 
+def parse_resolv_conf(text: str) -> list[str]:
+    """The domains of ``search`` and ``domain`` lines, lower case, without the root's dot.
+
+    A single-label entry counts only when it is a local suffix: ``search com`` (a misconfiguration)
+    must not make ``raspberrypi.com`` one of this machine's names.
+    """
+    found: list[str] = []
+    for line in text.splitlines():
+        fields = line.split("#", 1)[0].split(";", 1)[0].split()
+        if len(fields) < 2 or fields[0] not in ("search", "domain"):
+            continue
+        for domain in fields[1:]:
+            name = normalise(domain)
+            if name and (name.count(".") >= 1 or name in LOCAL_SUFFIXES) and name not in found:
+                found.append(name)
+    return found
+
+
+def _windows_search_domains() -> list[str]:  # pragma: no cover - Windows only
+    """The DNS suffix search list and the primary and connection-specific suffixes, from the registry."""
+    found: list[str] = []
+    if sys.platform == "win32":
+        import winreg
+
+        base = "SYSTEM\\CurrentControlSet\\Services\\Tcpip\\Parameters"
+        keys = [base]
+        with contextlib.suppress(OSError), winreg.OpenKey(winreg.HKEY_LOCAL_MACHINE, base + "\\Interfaces") as root:
+            keys += [base + "\\Interfaces\\" + winreg.EnumKey(root, i) for i in range(winreg.QueryInfoKey(root)[0])]
+        for key in keys:
+            with contextlib.suppress(OSError), winreg.OpenKey(winreg.HKEY_LOCAL_MACHINE, key) as handle:
+                for value in ("SearchList", "Domain", "DhcpDomain"):
+                    with contextlib.suppress(OSError):
+                        found += str(winreg.QueryValueEx(handle, value)[0]).replace(",", " ").split()
+    return parse_resolv_conf("search " + " ".join(found)) if found else []
+
+
+def search_domains() -> list[str]:
+    """This machine's resolver search list (what a bare name is completed with), read locally."""
+    if sys.platform == "win32":
+        with contextlib.suppress(OSError, ValueError):
+            return _windows_search_domains()
+        return []
+    try:
+        return parse_resolv_conf(RESOLV_CONF.read_text(encoding="utf-8", errors="replace"))
+    except OSError:
+        return []
+
+
 def mdns_label(hostname: str) -> str:
     """The DNS label the mDNS advertiser derives from the hostname (same rule as ``advertise``)."""
     label = re.sub(r"[^a-z0-9-]+", "-", hostname.split(".", 1)[0].lower()).strip("-")
@@ -91,47 +153,44 @@ def mdns_label(hostname: str) -> str:
 
 
 class HostPolicy:
-    """An immutable decision: is this name one of this machine's (or one the user allowed)?"""
+    """An immutable decision: is this name one of this machine's (or one the user allowed)?
 
-    def __init__(self, allowed: Iterable[str] = (), hostname: str | None = None) -> None:
+    ``domains`` is the resolver's search list (:func:`search_domains`, read by :class:`HostGuard`).
+    """
+
+    def __init__(self, allowed: Iterable[str] = (), hostname: str | None = None,
+                 domains: Sequence[str] = ()) -> None:
         full = normalise(machine_hostname() if hostname is None else hostname)
         self.hostname = full
         self.short = full.split(".", 1)[0] if not is_ip_literal(full) else full
+        self.domains = tuple(domains)
         entries = tuple(allowed)
         #: True when ``*`` is listed: every name passes.
         self.open = ANY_HOST in entries
         self.extra = frozenset(normalise(e) for e in entries if e != ANY_HOST)
-        names = {"localhost", full, self.short, f"{self.short}.local", mdns_label(full) + MDNS_SUFFIX}
-        self.names = frozenset(n for n in names if n)
-        # "<short>.<any domain>": not for a machine called "localhost" (every container's fallback),
-        # where it would allow localhost.evil.example.
-        self._domain_prefix = f"{self.short}." if self.short and self.short != "localhost" else None
+        names = ["localhost", full, self.short, f"{self.short}.local"]
+        # "<short>.<local domain>": not for a machine called "localhost" (every container's fallback).
+        if self.short and self.short != "localhost":
+            names += [f"{self.short}.{d}" for d in (*LOCAL_SUFFIXES, *self.domains)]
+        names.append(mdns_label(full) + MDNS_SUFFIX)
+        self._shown = [n for n in dict.fromkeys(names) if n]
+        self.names = frozenset(self._shown)
 
     def allows(self, name: str) -> bool:
         """Whether ``name`` (already :func:`normalise`-d) may be named in Host or Origin."""
         if self.open or name in self.names or name in self.extra:
             return True
-        prefix = self._domain_prefix
-        if prefix is not None and name.startswith(prefix) and len(name) > len(prefix) and ".." not in name:
-            return True
         return is_ip_literal(name)
 
     def always_allowed(self) -> list[str]:
         """The names allowed without configuration, for the setup page and the refusal text."""
-        names = ["localhost", self.hostname]
-        if self.short != self.hostname:
-            names.append(self.short)
-        names.append(f"{self.short}.local")
-        if self._domain_prefix:
-            names.append(f"{self.short}.<any domain>")
-        names.append(mdns_label(self.hostname) + MDNS_SUFFIX)
-        return names
+        return list(self._shown)
 
 
 def _refusal(what: str, name: str, policy: HostPolicy) -> str:
     return (f"Refused: {what} is not allowed here (a guard against DNS rebinding); add {name!r} to "
             f"server.allowed_hosts on the setup page, opened by this machine's IP address or as "
-            f"{policy.short}.local")
+            f"{policy.short}.local (or to allowed_hosts in the [server] table of the settings file)")
 
 
 class HostGuard:
@@ -142,17 +201,36 @@ class HostGuard:
     new one, never a new policy with stale decisions.
     """
 
-    def __init__(self, allowed: Iterable[str] = (), hostname: str | None = None) -> None:
+    def __init__(self, allowed: Iterable[str] = (), hostname: str | None = None,
+                 domains: Callable[[], Sequence[str]] = search_domains,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self._hostname = hostname
-        self._state: tuple[HostPolicy, dict[object, str | None]] = (HostPolicy(allowed, hostname), {})
+        self._allowed = tuple(allowed)
+        self._domains = domains
+        self._clock = clock
+        self._domains_read = clock()
+        self._state: tuple[HostPolicy, dict[object, str | None]] = (
+            HostPolicy(self._allowed, hostname, domains()), {})
 
     @property
     def policy(self) -> HostPolicy:
+        self._follow_search_list()
         return self._state[0]
 
     def set_allowed(self, allowed: Iterable[str]) -> None:
         """Apply a new ``server.allowed_hosts`` from the next request on (no restart)."""
-        self._state = (HostPolicy(allowed, self._hostname), {})
+        self._allowed = tuple(allowed)
+        self._state = (HostPolicy(self._allowed, self._hostname, self._domains()), {})
+
+    def _follow_search_list(self) -> None:
+        """Re-read the resolver's search list once a minute; a change gives a new policy (and cache)."""
+        now = self._clock()
+        if now - self._domains_read < SEARCH_LIST_TTL_S:
+            return
+        self._domains_read = now
+        domains = tuple(self._domains())
+        if domains != self._state[0].domains:
+            self._state = (HostPolicy(self._allowed, self._hostname, domains), {})
 
     def refusal(self, host: str | None, origin: str | None) -> str | None:
         """None when the request may proceed, else the one-line reason for its 403.
@@ -160,6 +238,7 @@ class HostGuard:
         ``host`` is the Host header (None or empty when absent, as in HTTP/1.0: judged by Origin
         alone); ``origin`` the Origin header (None when absent, as from every non-browser client).
         """
+        self._follow_search_list()
         policy, cache = self._state
         key: object = host if origin is None else (host, origin)
         try:

@@ -16,6 +16,13 @@ Design:
 - The mount works in apparent topocentric coordinates of date (JNow). In J2000 mode positions are
   converted with ERFA (precession-nutation, annual and diurnal aberration, light deflection) both
   ways; in JNow mode they pass unchanged.
+- At the door: a connection from outside ``stellarium.allowed_networks`` is closed unread
+  (:mod:`.admission`). An accepted connection is only *pending* until its first valid message: it
+  is not a client (not shown, not counted, no position stream, the Telescope not connected for it)
+  and bytes that cannot begin a Stellarium message (an HTTP request from a web page: "GE", "PO"
+  make a length of thousands) close it, logged at most once a minute. Stellarium itself sends
+  nothing until its first goto, so its opening message is silence: a pending connection that has
+  sent no byte for :data:`QUIET_OPENING_S` becomes a client, as one that sent a whole valid message.
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ import struct
 import threading
 import time
 import warnings
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any
@@ -41,6 +49,7 @@ except ImportError:  # pyerfa has no wheel for 32-bit ARM (armv7 Pis): J2000 nee
 
 from .._exceptions import AlpacaError
 from ..clients import ClientKey, current_client
+from .admission import DoorLog, Network, NetworkAllowlist
 
 if TYPE_CHECKING:
     from ..config.settings import SiteSettings, StellariumSettings
@@ -64,6 +73,11 @@ MSG_GOTO = 0
 MAX_MESSAGE_BYTES = 64  # Stellarium's longest message is 24 bytes; anything much longer is garbage
 MAX_PENDING_OUTPUT = 64 * 1024  # a client that stops reading for this long is dropped
 HOLD_RETRY_S = 5.0  # how soon to retry connecting the Telescope after a failure
+#: A pending connection silent this long is Stellarium (it sends nothing until a goto; a browser
+#: writes its request at once).
+QUIET_OPENING_S = 1.0
+#: A pending connection that began a message but did not finish it in this time is closed.
+OPENING_TIMEOUT_S = 5.0
 
 _WIRE_TURN = 1 << 32  # 24 h of RA, 360 degrees
 _DEC_QUARTER = 1 << 30  # 90 degrees of Dec
@@ -140,6 +154,8 @@ class _Client:
     inbuf: bytearray = field(default_factory=bytearray)
     outbuf: bytearray = field(default_factory=bytearray)
     messages: int = 0
+    accepted: float = field(default_factory=time.monotonic)  # when the connection was accepted
+    pending: bool = True  # not a client until its first valid message (or Stellarium's opening silence)
 
 
 @dataclass(frozen=True)
@@ -157,14 +173,15 @@ def _iso(seconds: float) -> str:
 def disabled_status(settings: StellariumSettings) -> dict[str, Any]:
     """What :meth:`StellariumBridge.status` would say when the bridge is not running."""
     return {"enabled": False, "host": settings.host, "port": settings.port, "equinox": settings.equinox,
-            "clients": [], "last_command": None, "last_error": None}
+            "clients": [], "last_command": None, "last_error": None, "turned_away": 0, "last_turned_away": None}
 
 
 class StellariumBridge:
     """Serves Stellarium's telescope protocol for one Telescope; ``start``/``stop`` bracket its life."""
 
     def __init__(self, telescope: Telescope, host: str = "0.0.0.0", port: int = 10001, equinox: str = "J2000",
-                 *, rate_hz: float = 4.0, max_clients: int = 64) -> None:
+                 *, rate_hz: float = 4.0, max_clients: int = 64,
+                 local_networks: Callable[[], Iterable[Network]] | None = None) -> None:
         if equinox not in ("J2000", "JNow"):
             raise ValueError(f"equinox must be 'J2000' or 'JNow', not {equinox!r}")
         if equinox == "J2000" and erfa is None:
@@ -181,8 +198,13 @@ class StellariumBridge:
         self._bound_port = 0
         self._selector = selectors.DefaultSelector()
         self._wake_r, self._wake_w = socket.socketpair()
-        self._clients: dict[int, _Client] = {}
+        self._clients: dict[int, _Client] = {}  # clients and pending connections, by descriptor
         self._lock = threading.Lock()  # guards _clients (for status) and the records below
+        #: ``stellarium.allowed_networks``, read live; ``local_networks`` says what "local" means.
+        self.allowlist = NetworkAllowlist(lambda: telescope.settings.stellarium.allowed_networks, local_networks)
+        self._door_log = DoorLog(log)
+        self._turned_away = 0
+        self._last_turned_away: dict[str, Any] | None = None
         self._last_command: dict[str, Any] | None = None
         self._last_error: dict[str, Any] | None = None
         self._stopping = threading.Event()
@@ -257,11 +279,23 @@ class StellariumBridge:
         """Enabled, where it listens, who is connected since when, the last goto and the last error."""
         with self._lock:
             clients = [{"address": c.address, "since": _iso(c.since), "messages": c.messages}
-                       for c in self._clients.values()]
+                       for c in self._clients.values() if not c.pending]
             last_command = dict(self._last_command) if self._last_command else None
             last_error = dict(self._last_error) if self._last_error else None
+            turned_away = self._turned_away
+            last_turned_away = dict(self._last_turned_away) if self._last_turned_away else None
         return {"enabled": True, "host": self.host, "port": self.port, "equinox": self.equinox,
-                "clients": clients, "last_command": last_command, "last_error": last_error}
+                "clients": clients, "last_command": last_command, "last_error": last_error,
+                # Connections closed at the door: from a network not allowed, or not Stellarium's protocol.
+                "turned_away": turned_away, "last_turned_away": last_turned_away,
+                "allowed_networks": [str(n) for n in self.allowlist.networks()]}
+
+    def _turn_away(self, kind: str, address: str, reason: str) -> None:
+        """Count and record a connection closed at the door; log it at most once a minute per kind."""
+        with self._lock:
+            self._turned_away += 1
+            self._last_turned_away = {"time": _iso(time.time()), "client": address, "message": reason}
+        self._door_log.refused(kind, f"Stellarium port: connection from {address} closed: {reason}")
 
     def _record_error(self, address: str, message: str) -> None:
         with self._lock:
@@ -278,6 +312,7 @@ class StellariumBridge:
                     self._dispatch(key, events)
                 if time.monotonic() >= next_tick:
                     next_tick = max(next_tick + self.period_s, time.monotonic())
+                    self._judge_pending()
                     self._broadcast_position()
             except Exception:  # a bug must not silently end the server for every Stellarium
                 log.exception("Stellarium server: unexpected error; carrying on")
@@ -307,6 +342,11 @@ class StellariumBridge:
                 log.warning("Stellarium server: accept failed: %s", exc)
                 return
             address = f"{peer[0]}:{peer[1]}"
+            if not self.allowlist.allows(peer[0]):
+                self._turn_away("network", address, f"{peer[0]} is not in stellarium.allowed_networks "
+                                                    f"(add its network on the setup page)")
+                sock.close()
+                continue
             if len(self._clients) >= self.max_clients:
                 log.warning("Stellarium %s refused: already %d connected", address, len(self._clients))
                 sock.close()
@@ -314,13 +354,29 @@ class StellariumBridge:
             sock.setblocking(False)
             with contextlib.suppress(OSError):
                 sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            client = _Client(sock, address, time.time())
+            client = _Client(sock, address, time.time())  # pending: a client after its first valid message
             with self._lock:
                 self._clients[sock.fileno()] = client
             self._selector.register(sock, selectors.EVENT_READ, client)
-            log.info("Stellarium connected from %s (%d connected)", address, len(self._clients))
-            self._set_hold(True)
-            self._send_position_to(client)
+
+    def _promote(self, client: _Client) -> None:
+        """A pending connection proved to be Stellarium: a client from now on."""
+        with self._lock:
+            client.pending = False
+            connected = sum(1 for c in self._clients.values() if not c.pending)
+        log.info("Stellarium connected from %s (%d connected)", client.address, connected)
+        self._set_hold(True)
+        self._send_position_to(client)
+
+    def _judge_pending(self) -> None:
+        """Promote pending connections that stayed silent (Stellarium's opening); close stalled ones."""
+        now = time.monotonic()
+        for client in [c for c in self._clients.values() if c.pending]:
+            if not client.inbuf and now - client.accepted >= QUIET_OPENING_S:
+                self._promote(client)
+            elif client.inbuf and now - client.accepted >= OPENING_TIMEOUT_S:
+                self._close_pending(client, f"an unfinished first message ({len(client.inbuf)} bytes) "
+                                            f"after {OPENING_TIMEOUT_S:.0f} s")
 
     def _read(self, client: _Client) -> None:
         try:
@@ -331,6 +387,9 @@ class StellariumBridge:
             self._drop(client, f"connection error: {exc}", level=logging.INFO)
             return
         if not data:
+            if client.pending:
+                self._close_pending(client, None)
+                return
             reason = f"closed the connection in mid-message ({len(client.inbuf)} bytes)" if client.inbuf else \
                 "disconnected"
             self._drop(client, reason, level=logging.WARNING if client.inbuf else logging.INFO)
@@ -339,36 +398,53 @@ class StellariumBridge:
         try:
             self._parse(client)
         except _BadInput as exc:
+            if client.pending:
+                self._close_pending(client, f"not Stellarium's protocol ({exc}; an HTTP request from a web "
+                                            f"browser, or another program)")
+                return
             self._record_error(client.address, f"dropped: {exc}")
             self._drop(client, f"dropped: {exc}", level=logging.WARNING)
 
     def _parse(self, client: _Client) -> None:
-        """Frame and handle every complete message in the client's buffer; raise _BadInput on garbage."""
+        """Frame and handle every complete message in the client's buffer; raise _BadInput on garbage.
+
+        The length is judged from its two bytes alone, so a connection written a byte at a time
+        is refused as soon as the first two bytes are in.
+        """
         buf = client.inbuf
-        while len(buf) >= HEADER.size:
-            length, kind = HEADER.unpack_from(buf)
+        while len(buf) >= 2:
+            length = int.from_bytes(buf[:2], "little")
             if length < HEADER.size or length > MAX_MESSAGE_BYTES:
                 raise _BadInput(f"message length {length} (allowed {HEADER.size}..{MAX_MESSAGE_BYTES})")
+            if len(buf) < HEADER.size:
+                return
+            kind = HEADER.unpack_from(buf)[1]
             if kind == MSG_GOTO and length != GOTO.size:
                 raise _BadInput(f"goto message of {length} bytes instead of {GOTO.size}")
             if len(buf) < length:
                 return
             message = bytes(buf[:length])
             del buf[:length]
+            goto = self._goto(client, message) if kind == MSG_GOTO else None  # checked before it counts
+            if client.pending:
+                self._promote(client)
             with self._lock:
                 client.messages += 1
-            if kind == MSG_GOTO:
-                self._handle_goto(client, message)
+            if goto is not None:
+                self._queue_goto(goto)
             else:
                 log.debug("Stellarium %s: skipped a message of unknown type %d (%d bytes)",
                           client.address, kind, length)
 
-    def _handle_goto(self, client: _Client, message: bytes) -> None:
+    @staticmethod
+    def _goto(client: _Client, message: bytes) -> _Goto:
         _, _, client_us, ra_raw, dec_raw = GOTO.unpack(message)
         if abs(dec_raw) > _DEC_QUARTER:
             raise _BadInput(f"goto declination {dec_from_wire(dec_raw):.3f} is beyond +-90 degrees")
-        goto = _Goto(client.address, ra_from_wire(ra_raw), dec_from_wire(dec_raw), time.time())
         log.debug("Stellarium %s: goto message time=%d ra=0x%08x dec=%d", client.address, client_us, ra_raw, dec_raw)
+        return _Goto(client.address, ra_from_wire(ra_raw), dec_from_wire(dec_raw), time.time())
+
+    def _queue_goto(self, goto: _Goto) -> None:
         with self._work:
             if self._pending_goto is not None:
                 log.info("Stellarium goto from %s replaced by a newer one before it started",
@@ -399,15 +475,35 @@ class StellariumBridge:
             with contextlib.suppress(KeyError, ValueError):
                 self._selector.modify(client.sock, selectors.EVENT_READ, client)
 
-    def _drop(self, client: _Client, reason: str, *, level: int) -> None:
+    def _remove(self, client: _Client) -> int | None:
+        """Forget a connection (the caller closes it): the clients still connected, or None if already gone."""
         with self._lock:
             if self._clients.get(client.sock.fileno()) is not client:
-                return
+                return None
             del self._clients[client.sock.fileno()]
-            remaining = len(self._clients)
-        log.log(level, "Stellarium %s %s (%d still connected)", client.address, reason, remaining)
+            remaining = sum(1 for c in self._clients.values() if not c.pending)
         with contextlib.suppress(KeyError, ValueError):
             self._selector.unregister(client.sock)
+        return remaining
+
+    def _close_pending(self, client: _Client, reason: str | None) -> None:
+        """Close a connection that never became a client; ``reason`` None: it simply went away."""
+        if self._remove(client) is None:
+            return
+        if reason is None:
+            log.debug("Stellarium port: %s closed before its first message", client.address)
+        else:
+            self._turn_away("protocol", client.address, reason)
+        client.sock.close()
+
+    def _drop(self, client: _Client, reason: str, *, level: int) -> None:
+        if client.pending:
+            self._close_pending(client, None)
+            return
+        remaining = self._remove(client)
+        if remaining is None:
+            return
+        log.log(level, "Stellarium %s %s (%d still connected)", client.address, reason, remaining)
         client.sock.close()
         if remaining == 0:
             self._set_hold(False)
@@ -439,12 +535,13 @@ class StellariumBridge:
             self._queue(client, message)
 
     def _broadcast_position(self) -> None:
-        if not self._clients:
+        clients = [c for c in self._clients.values() if not c.pending]
+        if not clients:
             return
         message = self._position_message()
         if message is None:
             return
-        for client in list(self._clients.values()):
+        for client in clients:
             self._queue(client, message)
 
     # -- worker thread: telescope hold and gotos -----------------------------------------------

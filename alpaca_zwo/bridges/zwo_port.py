@@ -10,6 +10,11 @@ any program is connected the bridge holds the Telescope connected as one client;
 appears in the client registry under its own key, so the MoveAxis watchdog stops a move whose
 program went silent, and a program that disconnects has the moves it started stopped. A program
 that floods commands, sends a long run of garbage or does not read its replies is dropped alone.
+
+At the door (:mod:`.admission`): a connection from outside ``zwo_port.allowed_networks`` is closed
+unread, and one whose first bytes are not the ZWO/LX200 protocol (an HTTP request from a web page,
+TLS, noise) is closed before anything runs. Until its first command a connection is not a program:
+it is not shown, does not connect the Telescope and is not logged as connected.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ import logging
 import socket
 import threading
 import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any
@@ -28,6 +34,7 @@ from .._exceptions import AlpacaError
 from ..clients import ClientKey, current_client
 from ..zwo.protocol import match_command
 from ..zwo.request_framer import RequestFramer
+from .admission import DoorLog, Network, NetworkAllowlist, NotZwo, ZwoOpening
 from .zwo_replies import ZwoResponder
 from .zwo_session import Refusal, Session
 
@@ -52,6 +59,8 @@ BYTE_BURST = 65536.0
 #: A program that does not read its replies for this long is dropped.
 SEND_TIMEOUT_S = 5.0
 POLL_S = 0.5
+#: A connection that has not sent its first command by then is closed (a person typing into nc has a minute).
+OPENING_TIMEOUT_S = 60.0
 
 
 @dataclass
@@ -91,6 +100,8 @@ class _Program:
     byte_budget: _Bucket = field(default_factory=lambda: _Bucket(BYTE_RATE, BYTE_BURST))
     junk: int = 0
     thread: threading.Thread | None = None
+    #: False until its first command: until then it is only a connection, not a program.
+    identified: bool = False
 
 
 class _Drop(Exception):
@@ -104,11 +115,17 @@ def _iso(stamp: float) -> str:
 class ZwoPortBridge:
     """Listens on ``host:port`` and serves the ZWO protocol on top of ``telescope`` (Telescope 0)."""
 
-    def __init__(self, telescope: Telescope, host: str = "0.0.0.0", port: int = 4030) -> None:
+    def __init__(self, telescope: Telescope, host: str = "0.0.0.0", port: int = 4030, *,
+                 local_networks: Callable[[], Iterable[Network]] | None = None) -> None:
         self.telescope = telescope
         self.host = host
         self._requested_port = port
         self.responder = ZwoResponder(telescope)
+        #: ``zwo_port.allowed_networks``, read live; ``local_networks`` says what "local" means.
+        self.allowlist = NetworkAllowlist(lambda: telescope.settings.zwo_port.allowed_networks, local_networks)
+        self._door_log = DoorLog(log)
+        self._turned_away = 0
+        self._last_turned_away: dict[str, Any] | None = None
         self._listener: socket.socket | None = None
         self._accept_thread: threading.Thread | None = None
         self._stopping = threading.Event()
@@ -179,7 +196,7 @@ class ZwoPortBridge:
             programs = [
                 {"address": p.address, "since": _iso(p.since), "commands": p.commands,
                  "refusals": p.refusals, "last_command": p.last_command}
-                for p in self._programs.values()
+                for p in self._programs.values() if p.identified
             ]
             return {
                 "enabled": not self._stopping.is_set() and self._listener is not None,
@@ -190,6 +207,10 @@ class ZwoPortBridge:
                 "refusals": self._refusals,
                 "last_refusal": dict(self._last_refusal) if self._last_refusal else None,
                 "dropped": self._dropped,
+                # Connections closed at the door: from a network not allowed, or not the ZWO protocol.
+                "turned_away": self._turned_away,
+                "last_turned_away": dict(self._last_turned_away) if self._last_turned_away else None,
+                "allowed_networks": [str(n) for n in self.allowlist.networks()],
             }
 
     # -- accepting -----------------------------------------------------------------------------------
@@ -206,7 +227,20 @@ class ZwoPortBridge:
                     return
                 time.sleep(0.05)  # e.g. out of descriptors: do not spin
                 continue
-            self._admit(sock, f"{peer[0]}:{peer[1]}")
+            address = f"{peer[0]}:{peer[1]}"
+            if not self.allowlist.allows(peer[0]):
+                self._turn_away("network", address, f"{peer[0]} is not in zwo_port.allowed_networks "
+                                                    f"(add its network on the setup page)")
+                _shutdown(sock)
+                continue
+            self._admit(sock, address)
+
+    def _turn_away(self, kind: str, address: str, reason: str) -> None:
+        """Count and record a connection closed at the door; log it at most once a minute per kind."""
+        with self._lock:
+            self._turned_away += 1
+            self._last_turned_away = {"address": address, "at": _iso(time.time()), "reason": reason}
+        self._door_log.refused(kind, f"ZWO port: connection from {address} closed: {reason}")
 
     def _admit(self, sock: socket.socket, address: str) -> None:
         with self._lock:
@@ -239,9 +273,16 @@ class ZwoPortBridge:
         try:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             sock.settimeout(POLL_S)
+            opening = self._opening(program)
+            if opening is None:
+                return
             held = self._hold()
-            log.info("ZWO port: program %s connected (%d connected)", program.address, len(self._programs))
-            self._read_loop(program)
+            with self._lock:
+                program.identified = True
+            log.info("ZWO port: program %s connected (%d connected)", program.address, self._connected())
+            self._read_loop(program, opening)
+        except NotZwo as exc:
+            self._turn_away("protocol", program.address, f"{exc}")
         except _Drop as exc:
             with self._lock:
                 self._dropped += 1
@@ -256,13 +297,42 @@ class ZwoPortBridge:
             _shutdown(sock)
             with self._lock:
                 self._programs.pop(ident, None)
-                remaining = len(self._programs)
             if held:
                 self._release()
-            log.info("ZWO port: program %s disconnected (%d still connected)", program.address, remaining)
+            if program.identified:
+                log.info("ZWO port: program %s disconnected (%d still connected)", program.address,
+                         self._connected())
 
-    def _read_loop(self, program: _Program) -> None:
+    def _connected(self) -> int:
+        """Programs connected: connections that have sent their first command."""
+        with self._lock:
+            return sum(1 for p in self._programs.values() if p.identified)
+
+    def _opening(self, program: _Program) -> bytes | None:
+        """Read until the first command is complete: its bytes, or None when the connection ended first.
+
+        Raises :class:`NotZwo` the moment the bytes cannot be a driver's (nothing has run by then).
+        """
+        judge = ZwoOpening()
+        received = bytearray()
+        deadline = time.monotonic() + OPENING_TIMEOUT_S
+        while not self._stopping.is_set():
+            if time.monotonic() > deadline:
+                raise NotZwo(f"no command within {OPENING_TIMEOUT_S:.0f} s")
+            try:
+                data = program.sock.recv(RECV_BYTES)
+            except TimeoutError:
+                continue
+            if not data:
+                return None
+            received += data
+            if judge.feed(data):
+                return bytes(received)
+        return None
+
+    def _read_loop(self, program: _Program, opening: bytes) -> None:
         framer = RequestFramer()
+        self._take(program, framer, opening)
         while not self._stopping.is_set():
             try:
                 data = program.sock.recv(RECV_BYTES)
@@ -270,13 +340,16 @@ class ZwoPortBridge:
                 continue
             if not data:
                 return  # the program closed its end
-            if not program.byte_budget.take(len(data)):
-                raise _Drop(f"flooding (more than {BYTE_RATE / 1024:.0f} KiB/s)")
-            program.junk += len(data)
-            for body in framer.feed(data):
-                self._command(program, body)
-            if program.junk > MAX_JUNK_BYTES:
-                raise _Drop(f"{program.junk} bytes without a known command")
+            self._take(program, framer, data)
+
+    def _take(self, program: _Program, framer: RequestFramer, data: bytes) -> None:
+        if not program.byte_budget.take(len(data)):
+            raise _Drop(f"flooding (more than {BYTE_RATE / 1024:.0f} KiB/s)")
+        program.junk += len(data)
+        for body in framer.feed(data):
+            self._command(program, body)
+        if program.junk > MAX_JUNK_BYTES:
+            raise _Drop(f"{program.junk} bytes without a known command")
 
     def _command(self, program: _Program, body: str) -> None:
         if not program.command_budget.take():

@@ -27,6 +27,7 @@ from alpaca_zwo._exceptions import ConfigError
 from alpaca_zwo.zwo.firmware import DEFAULT_PRESET, MODELS, PRESETS
 
 __all__ = [
+    "LOCAL_NETWORKS",
     "ZWO_PORT_DANGEROUS",
     "DeviceSettings",
     "EmulatorSettings",
@@ -175,6 +176,28 @@ def _host_names(value: Any) -> tuple[str, ...]:
     return tuple(value)
 
 
+#: The ``allowed_networks`` entry meaning loopback plus the networks of this machine's own interfaces.
+LOCAL_NETWORKS = "local"
+
+
+def _networks(value: Any) -> tuple[str, ...]:
+    """A bridge's ``allowed_networks``: CIDRs or single addresses, and "local"; never empty."""
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+        raise _Invalid(f"must be an array of networks such as \"local\" or \"10.8.0.0/24\", not {_kind(value)}")
+    if not value:
+        raise _Invalid("must list at least one network (\"local\" is the default); to refuse everyone, "
+                       "turn the bridge off")
+    for entry in value:
+        if entry == LOCAL_NETWORKS:
+            continue
+        try:
+            ipaddress.ip_network(entry, strict=False)
+        except ValueError:
+            raise _Invalid(f"{entry!r} is not a network: give \"local\", an address (192.168.1.7) or "
+                           f"a network (192.168.1.0/24, fd00::/64)") from None
+    return tuple(value)
+
+
 def _is_ipv6(name: str) -> bool:
     try:
         ipaddress.IPv6Address(name.removeprefix("[").removesuffix("]").split("%", 1)[0])
@@ -315,6 +338,8 @@ class StellariumSettings:
     host: str = _setting("0.0.0.0", _str(nonempty=True, pattern=r"\S+", hint="a host name or IPv4 address"))
     port: int = _setting(10001, _int(0, 65535))  # 0 = any free port
     equinox: Literal["J2000", "JNow"] = _setting("J2000", _choice("J2000", "JNow"))
+    #: Who may connect: "local" (loopback and this machine's own networks) and CIDRs (a VPN, a routed LAN).
+    allowed_networks: tuple[str, ...] = _setting((LOCAL_NETWORKS,), _networks)
 
 
 #: Commands of the shared ZWO port that change the mount for every program (mode, alignment,
@@ -342,6 +367,8 @@ class ZwoPortSettings:
     port: int = _setting(4030, _int(0, 65535))
     max_clients: int = _setting(16, _int(1, 256))
     allow_dangerous: tuple[str, ...] = _setting((), _dangerous_codes)
+    #: Who may connect: "local" (loopback and this machine's own networks) and CIDRs (a VPN, a routed LAN).
+    allowed_networks: tuple[str, ...] = _setting((LOCAL_NETWORKS,), _networks)
 
 
 def _default_devices() -> tuple[DeviceSettings, ...]:

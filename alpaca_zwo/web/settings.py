@@ -41,9 +41,12 @@ FILE_GROUPS = ("site", "park", "limits", "safety", "device")
 #: What each site key may be; checked before anything is saved, so a bad longitude cannot leave a
 #: new latitude half-applied.
 SITE_RANGES = {"latitude": (-90.0, 90.0), "longitude": (-180.0, 180.0), "elevation": (-300.0, 10000.0)}
-SERVER_KEYS = frozenset({"host", "port", "discovery_port", "mdns", "location", "allowed_hosts"})
-#: Server keys in effect at once (the host guard follows the store); the others after a restart.
-LIVE_SERVER_KEYS = frozenset({"allowed_hosts"})
+SERVER_KEYS = frozenset({"host", "port", "discovery_port", "mdns", "location", "allowed_hosts", "allowed_networks"})
+#: Server keys in effect at once (the host guard follows the store, the bridges read theirs on each
+#: connection); the others after a restart.
+LIVE_SERVER_KEYS = frozenset({"allowed_hosts", "allowed_networks"})
+#: The bridges whose ``allowed_networks`` the page edits (``allowed_networks`` in a server change).
+BRIDGE_SECTIONS = ("zwo_port", "stellarium")
 
 MountCommand = tuple[str, Any]
 #: A mount-held group's checker: (device, the group's value) -> the commands to send, in order.
@@ -260,6 +263,9 @@ def server_view(facade: ServerFacade) -> dict[str, Any]:
         # The DNS-rebinding guard: names added by the user ("*": no guard) and those always allowed.
         "allowed_hosts": list(net.allowed_hosts),
         "host_names": facade.host_names(),
+        # Who may connect to each bridge ("local" = loopback and local_networks, listed as they are now).
+        "allowed_networks": {name: list(getattr(facade.settings, name).allowed_networks) for name in BRIDGE_SECTIONS},
+        "local_networks": facade.local_networks(),
         "config_file": str(facade.config_file) if facade.config_file else None,
         "basic_auth": bool(net.basic_auth_user),
         "devices": [{"number": d.index, "name": d.name, "unique_id": d.unique_id} for d in facade.devices()],
@@ -272,10 +278,15 @@ def server_view(facade: ServerFacade) -> dict[str, Any]:
 def change_server(facade: ServerFacade, body: dict[str, Any]) -> None:
     only_keys(body, SERVER_KEYS, "server setting(s)")
     _check_listen(facade, body)
+    server = dict(body)
+    networks = obj(server.pop("allowed_networks"), "allowed_networks") if "allowed_networks" in body else {}
+    only_keys(networks, set(BRIDGE_SECTIONS), "allowed_networks bridge(s)")
 
     def change(current: Settings) -> Settings:
         data = settings_to_dict(current)
-        data["server"] = {**data["server"], **body}
+        data["server"] = {**data["server"], **server}
+        for name, entries in networks.items():
+            data[name] = {**data[name], "allowed_networks": entries}
         return settings_from_dict(data, "setup page")
 
     facade.update_settings(change)

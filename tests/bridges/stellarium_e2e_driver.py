@@ -233,7 +233,9 @@ def scenario(out: Path) -> dict[str, Any]:
             alpaca.put("slewtocoordinatesasync", RightAscension=(lst - 1.0) % 24.0, Declination=40.0)
             poll(lambda: api.log_has("Connection established"), STARTUP_TIMEOUT_S, "Stellarium to connect")
             report["connected_after_s"] = round(time.monotonic() - t0, 1)
-            report["bridge_clients"] = server.stellarium.status()["clients"]
+            # A client after its opening silence (it sends nothing until a goto): QUIET_OPENING_S later.
+            report["bridge_clients"] = poll(lambda: server.stellarium.status()["clients"], 10.0,
+                                            "Stellarium to become the bridge's client")
             # Stellarium 0.22.2 segfaults if objects/info names a telescope that has not had its first
             # position yet; the positions flow at 4 Hz with a 0.5 s display delay, so 3 s covers it.
             time.sleep(3.0)

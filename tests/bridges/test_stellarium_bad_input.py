@@ -111,11 +111,15 @@ def watchers(rig: Rig) -> Iterator[tuple[Observer, Poller]]:
 
 
 def _dropped(rig: Rig, payload: bytes, reason: str, caplog: pytest.LogCaptureFixture) -> None:
-    """Send payload on a fresh connection; it must be closed by the server, logged and recorded."""
+    """A client (it has had a position) sends payload; it must be closed by the server, logged and recorded.
+
+    The same bytes as a connection's first ones close it before it is a client: test_stellarium_door.py.
+    """
     caplog.set_level(logging.INFO, logger="alpaca_zwo.bridges.stellarium")
     offender = StellariumClient(rig.stellarium_port)
     address = f"127.0.0.1:{offender.sock.getsockname()[1]}"
     try:
+        offender.read_position()
         offender.send_raw(payload)
         assert offender.closed_by_server(timeout=5.0), "the server kept a client that sent garbage"
     finally:

@@ -396,18 +396,22 @@ def test_junk_floods_and_connection_storms_drop_only_the_offender(server: Alpaca
     good = ZwoClient(port)
     rng = random.Random(16)
     try:
-        # A program mixing junk into real commands is resynchronised and answered correctly.
+        # A program mixing junk into real commands is resynchronised and answered correctly (junk after
+        # its first command: before it, junk closes the connection, tests/bridges/test_zwo_port_door.py).
         junk = ZwoClient(port)
+        assert junk.ask(":GVP#") == b"AM5#"
         for _ in range(20):
             junk.sock.sendall(bytes(rng.randrange(256) for _ in range(rng.randrange(1, 40))).replace(b":", b"").
                               replace(b"#", b""))
             assert junk.ask("#:GVP#", kind=ReplyKind.TEXT) == b"AM5#"
         junk.close()
-        # Oversized garbage: a long run without a known command, and a runaway command body.
+        # Oversized garbage from a program: a long run without a known command, and a runaway command body.
         garbage = ZwoClient(port)
+        assert garbage.ask(":GVP#") == b"AM5#"
         garbage.sock.sendall(b":" + b"x" * 20000)
         assert garbage.closed_by_server()
         random_bytes = ZwoClient(port)
+        assert random_bytes.ask(":GVP#") == b"AM5#"
         random_bytes.sock.sendall(bytes(rng.randrange(256) for _ in range(20000)))
         assert random_bytes.closed_by_server()
         # A flood of commands far beyond what any driver sends.
@@ -416,6 +420,7 @@ def test_junk_floods_and_connection_storms_drop_only_the_offender(server: Alpaca
         assert flood.closed_by_server()
         # Garbage dressed up with a real command every 4 KB: dropped for its byte rate.
         dressed = ZwoClient(port)
+        assert dressed.ask(":GVP#") == b"AM5#"
         with contextlib.suppress(OSError):
             for _ in range(100):
                 dressed.sock.sendall(b"x" * 4000 + b":GVP#")
