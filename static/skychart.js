@@ -21,7 +21,8 @@
   const REFRESH_MS = 30000; // a star moves 0.125° in 30 s: under a pixel of the chart at phone width
   const TAP_PX = 12; // touch-friendly: a fingertip is ~10 mm
   const LABEL_MAG = 1.0; // names for the brightest stars only (about 15 of them, the half above the horizon)
-  const DSO_LABEL_MAG = 5.5; // names for the deep-sky showpieces (the Magellanic Clouds, M31, ω Cen, 47 Tuc …)
+  const DSO_LABEL_MAG = 6.0; // names for the deep-sky showpieces with a name (the Magellanic Clouds, M31, ω Cen, 47 Tuc …)
+  const DSO_NUMBER_MAG = 3.5; // … and for those known by number only when this bright (NGC 6231)
   const KEY_MAG = 2.0; // the keyboard moves between the bodies, stars to this magnitude and the labelled deep-sky objects
   const D2R = Math.PI / 180;
   const COMPASS = ["N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE", "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW"];
@@ -120,8 +121,9 @@
         transform: "translate(" + x + " " + y + ")" }, g);
       dsoSymbol(node, d[4], r);
       el("title", {}, node).textContent = d[1] + (d[2] && d[2] !== d[1] ? " (" + d[2] + ")" : "");
-      const bright = d[7] !== null && d[7] <= DSO_LABEL_MAG;
-      if (alt > 0 && (bright || d[8] >= 2)) {
+      const numbered = /^(NGC|IC) /.test(d[2]);
+      const shown = numbered ? d[7] !== null && d[7] <= DSO_NUMBER_MAG : d[7] === null || d[7] <= DSO_LABEL_MAG || d[8] >= 2;
+      if (alt > 0 && shown) {
         labels.push({ text: d[2], x, y, r: Math.min(r, 4), cls: "sky-dso-name", rank: 10 + (d[7] === null ? 6 : d[7]) });
         keep.push(box(x - Math.min(r, 3), y - Math.min(r, 3), x + Math.min(r, 3), y + Math.min(r, 3)));
         chart.items.push({ id: d[0], name: d[1] + (d[2] !== d[1] ? " (" + d[2] + ")" : ""), kind: d[3], alt, az, mag: d[7], x, y });
@@ -379,9 +381,13 @@
     for (const [key, swatches, label] of LEGEND) {
       const li = document.createElement("li");
       li.dataset.legend = key;
-      if (label) li.append(label);
+      const named = swatches.some((sw) => sw[2]); // "telescope: [] tracking [] slewing", else "[] meridian"
+      if (label && named) li.append(label);
       for (const [cls, drawSwatch, word] of swatches) {
-        const svg = el("svg", { class: "swatch", viewBox: "-11 -11 22 22", "aria-hidden": "true" }, li);
+        const pair = document.createElement("span");
+        pair.className = "pair";
+        li.append(pair);
+        const svg = el("svg", { class: "swatch", viewBox: "-11 -11 22 22", "aria-hidden": "true" }, pair);
         const g = el("g", { class: cls }, svg);
         drawSwatch(g);
         // Classes on the group for shapes styled as "group child" (.sky-scope circle); on the shape itself otherwise.
@@ -389,8 +395,9 @@
           for (const child of g.children) if (!child.getAttribute("class")) child.setAttribute("class", cls);
           g.removeAttribute("class");
         }
-        if (word) li.append(word);
+        if (word) pair.append(word);
       }
+      if (label && !named) li.append(label);
       list.append(li);
     }
     syncLegend();
