@@ -241,7 +241,7 @@
     for (const alt of [30, 60]) {
       el("circle", { cx: 0, cy: 0, r: ((90 - alt) / 90) * R, class: "sky-ring" }, svg);
       const [, y] = project(view.up + 180, alt); // on the meridian below the zenith, clear of its line
-      const label = el("text", { x: 3, y: y - 2, class: "sky-small ring-label" }, svg);
+      const label = el("text", { x: 3, y: y - 2, class: "sky-small ring-label", "data-ring": ((90 - alt) / 90) * R }, svg);
       label.textContent = alt + "\u00b0";
     }
     el("circle", { cx: 0, cy: 0, r: R, class: "sky-horizon" }, svg);

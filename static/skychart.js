@@ -29,7 +29,7 @@
 
   const chart = {
     stars: null, lines: null, places: null, dsos: [], dsoPlaces: [], bodies: [], latitude: null, lst: null, utc: null,
-    selected: null, items: [], cursor: null,
+    time: null, selected: null, items: [], cursor: null,
   };
 
   function el(tag, attrs, parent) {
@@ -170,7 +170,46 @@
     return true;
   }
 
-  /** The chart's own lettering and lines (app.js): compass letters, ring labels, "pole", meridian, flip line. */
+  /** Move a centred text (.sky-small) so its box is the box given. */
+  function putCentred(t, b, dx, dy) {
+    const bb = t.getBBox();
+    t.setAttribute("x", ((b.x0 + b.x1) / 2 - dx).toFixed(2));
+    t.setAttribute("y", (b.y0 - dy + (Number(t.getAttribute("y")) - bb.y)).toFixed(2));
+  }
+
+  /** Where app.js's movable lettering goes: each ring's altitude beside the meridian where no line crosses it
+   * (below the zenith, else above it, right or left of the meridian), "pole" beside its mark. */
+  function placeChartLetters(svg, taken, free) {
+    const spots = [];
+    for (const t of svg.querySelectorAll(".ring-label")) {
+      const r = Number(t.getAttribute("data-ring"));
+      const bb = t.getBBox();
+      const [w, h] = [bb.width || 10, bb.height || 7];
+      spots.push([t, 0, 0, [[2, r - 1 - h], [-2 - w, r - 1 - h], [2, -r + 1], [-2 - w, -r + 1], [2, r + 1], [-2 - w, r + 1]]
+        .map(([x0, y0]) => box(x0, y0, x0 + w, y0 + h))]);
+    }
+    const pole = svg.querySelector("#sky-pole");
+    const poleText = pole && pole.querySelector("text");
+    const at = pole && /translate\(([-\d.]+) ([-\d.]+)\)/.exec(pole.getAttribute("transform") || "");
+    if (poleText && at) {
+      const [px, py] = [Number(at[1]), Number(at[2])];
+      const bb = poleText.getBBox();
+      const [w, h] = [bb.width || 12, bb.height || 7];
+      const around = [];
+      for (const d of [4, 7, 11]) {
+        around.push([px + d, py - h / 2], [px - d - w, py - h / 2], [px - w / 2, py - d - h], [px - w / 2, py + d],
+          [px + d * 0.7, py - d * 0.7 - h], [px - d * 0.7 - w, py - d * 0.7 - h], [px + d * 0.7, py + d * 0.7], [px - d * 0.7 - w, py + d * 0.7]);
+      }
+      spots.push([poleText, px, py, around.map(([x0, y0]) => box(x0, y0, x0 + w, y0 + h))]);
+    }
+    for (const [t, dx, dy, candidates] of spots) {
+      const b = candidates.find((c) => free(c)) || candidates[0];
+      putCentred(t, b, dx, dy);
+      taken.push(b);
+    }
+  }
+
+  /** The chart's own lettering and lines (app.js): compass letters, "pole", meridian, flip line. */
   function fixedObstacles() {
     const svg = $("sky");
     const inverse = svg.getScreenCTM();
@@ -179,7 +218,7 @@
     if (!inverse) return { boxes, segments };
     const m = inverse.inverse();
     for (const t of svg.querySelectorAll("text")) {
-      if (t.closest("#sky-chart") || t.closest(".hidden")) continue;
+      if (t.closest("#sky-chart") || t.closest(".hidden") || t.closest("#sky-pole") || t.classList.contains("ring-label")) continue;
       const r = t.getBoundingClientRect();
       if (!r.width) continue;
       const a = new DOMPoint(r.left, r.top).matrixTransform(m), b = new DOMPoint(r.right, r.bottom).matrixTransform(m);
@@ -204,6 +243,7 @@
     const outer = ((90 - hook.MIN_ALT) / 90) * hook.R - 1;
     const free = (b, self) => taken.every((t) => t === self || !overlaps(t, b)) && segments.every((s) => !crosses(s, b)) &&
       [[b.x0, b.y0], [b.x1, b.y0], [b.x0, b.y1], [b.x1, b.y1]].every(([x, y]) => Math.hypot(x, y) < outer);
+    placeChartLetters($("sky"), taken, free);
     let dropped = 0;
     labels.sort((a, b) => a.rank - b.rank);
     for (const label of labels) {
@@ -217,7 +257,7 @@
       if (!w) { w = label.text.length * 3.1; h = 6.5; base = 5; }
       const own = keep.find((k) => Math.abs((k.x0 + k.x1) / 2 - label.x) < 0.01 && Math.abs((k.y0 + k.y1) / 2 - label.y) < 0.01);
       let spot = null;
-      for (const gap of [1, 3.5, 7]) {
+      for (const gap of [1, 3.5, 7, 10.5]) {
         const d = label.r + gap;
         const c = d * 0.72;
         for (const [x0, y0] of [[label.x + d, label.y - h / 2], [label.x - d - w, label.y - h / 2],
@@ -282,6 +322,7 @@
     placeSelection();
     placeCursor();
     syncLegend();
+    if (chart.time) layer.dataset.time = chart.time; // the instant the places are for (tests read it)
   }
 
   // ---------------------------------------------------------------- places
@@ -343,8 +384,8 @@
       chart.dsoPlaces = answer.dsos || [];
       chart.bodies = answer.bodies;
       chart.latitude = answer.latitude;
+      chart.time = answer.time;
       draw();
-      $("sky-chart").dataset.time = answer.time; // the instant the places are for (tests read it)
     } catch (_) { /* the status poll reports an unreachable server */ }
   }
 
