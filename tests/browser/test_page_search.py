@@ -53,7 +53,8 @@ class Page:
             field.send_keys(Keys.ENTER)
 
     def matches(self) -> list[str]:
-        return [b.text for b in self.driver.find_elements(By.XPATH, "//ul[@id='find-list']//button") if b.is_displayed()]
+        buttons = self.driver.find_elements(By.XPATH, "//ul[@id='find-list']//button")
+        return [b.text for b in buttons if b.is_displayed()]
 
     def note(self) -> str:
         note = self.driver.find_element(By.ID, "find-note")
@@ -118,7 +119,8 @@ def test_names_people_type_and_what_enter_takes(server_factory: ServerFactory, b
             ("Heart Nebula", "IC 1805", "Heart Nebula"), ("Sh2-155", "Cave Nebula", "Sh2-155"),
             ("HIP 4427", "\u03b3 Cas", "27 Cas")):
         page.choose(typed, title)
-        assert names in browser.find_element(By.ID, "sel-kind").text, (typed, browser.find_element(By.ID, "sel-kind").text)
+        kind = browser.find_element(By.ID, "sel-kind").text
+        assert names in kind, (typed, kind)
         if typed == "Omega Centauri":
             browser.save_screenshot(f"/tmp/alpaca-zwo-search-omega-{size}.png")
 
@@ -149,7 +151,8 @@ def test_times_are_in_the_sites_zone_and_say_so(server_factory: ServerFactory, b
     assert facts["Tonight"] == (f"rise {site['rise']} \u00b7 transit {site['transit']} \u00b7 set {site['set']}"
                                 f" ({api['site_zone']}, site time)"), facts
     assert "UTC+9" in api["site_zone"]
-    utc = {k: datetime.fromisoformat(api[k].replace("Z", "+00:00")).strftime("%H:%M") for k in ("rise", "transit", "set")}
+    utc = {k: datetime.fromisoformat(api[k].replace("Z", "+00:00")).strftime("%H:%M")
+           for k in ("rise", "transit", "set")}
     if browser_zone == "UTC":  # a browser in another zone than the site's: its clock too, labelled
         assert facts["Your zone"] == (f"rise {utc['rise']} \u00b7 transit {utc['transit']} \u00b7 set {utc['set']}"
                                       " (UTC+0, this browser)"), facts

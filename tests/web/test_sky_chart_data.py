@@ -94,7 +94,8 @@ def test_body_places_agree_with_skyfield() -> None:
 
 def test_the_unnamed_stars_carry_designations_and_proper_motions() -> None:
     stars = catalogue()["stars"]
-    assert catalogue()["fields"] == ["hip", "ra_deg", "dec_deg", "vmag", "name", "designations", "pmra_mas", "pmdec_mas"]
+    assert catalogue()["fields"] == ["hip", "ra_deg", "dec_deg", "vmag", "name", "designations", "pmra_mas",
+                                     "pmdec_mas"]
     gamma_cas = next(s for s in stars if s[0] == 4427)
     assert gamma_cas[4] is None and gamma_cas[5].split(";")[0] == "γ Cas"
     assert sum(1 for s in stars if s[5]) >= 0.95 * len(stars)  # Stellarium's name.fab: all but a few faint ones

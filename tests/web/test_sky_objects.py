@@ -26,7 +26,6 @@ from alpaca_zwo.web.objects import (
     LUNAR,
     SIDEREAL,
     SOLAR,
-    ObjectError,
     QueryError,
     Site,
     apparent,
@@ -112,7 +111,8 @@ ORION_HM = (5 + 35 / 60, -(5 + 23 / 60))
     ("5h35m17s −5°23′28″", ORION), ("5h 35m 17s / -5d 23' 28''", ORION), ("RA 5h35m17s Dec -5°23'28\"", ORION),
     ("RA: 05:35:17, Dec: -05:23:28", ORION), ("5h35.2833m -5°23.4667'", (5.5880556, -5.3911111)),
     ("5.588h -5.39", (5.588, -5.39)), ("5.588h −5.39°", (5.588, -5.39)), ("83.82° -5.39°", (83.82 / 15, -5.39)),
-    ("83.82d -5.39d", (83.82 / 15, -5.39)), ("83.82°, +5.39°", (83.82 / 15, 5.39)), ("5h35m 5°23'", (ORION_HM[0], 5.38333)),
+    ("83.82d -5.39d", (83.82 / 15, -5.39)), ("83.82°, +5.39°", (83.82 / 15, 5.39)),
+    ("5h35m 5°23'", (ORION_HM[0], 5.38333)),
     ("12 30 45 +12 23 28", (12.5125, 12.39111)), ("0 0", (0.0, 0.0)), ("23h59m59s -89°59'59\"", (23.99972, -89.99972)),
 ])
 def test_typed_coordinates_in_each_form(text: str, place: tuple[float, float]) -> None:
@@ -134,7 +134,8 @@ def test_a_bare_decimal_pair_is_ambiguous_and_both_readings_are_offered(text: st
     assert hours.ra_hours == pytest.approx(number) and degrees.ra_hours == pytest.approx(number / 15.0)
     assert hours.kind.endswith("RA read as hours") and degrees.kind.endswith("RA read as degrees")
     assert not found.confident
-    assert found.note is not None and "hours or in degrees" in found.note and f"{text.split()[0].rstrip(',')}h" in found.note
+    assert found.note is not None and "hours or in degrees" in found.note
+    assert f"{text.split()[0].rstrip(',')}h" in found.note
     with pytest.raises(QueryError, match="hours or in degrees"):  # a GoTo never guesses which
         lookup(text)
     chosen = lookup(degrees.id)  # each reading's own id is unambiguous
@@ -200,7 +201,7 @@ def test_tracking_rates_follow_the_object() -> None:
 def test_names_and_numbers_people_type(query: str, object_id: str, title: str | None) -> None:
     found = find(query)
     assert found.matches, query
-    best, how = found.matches[0]
+    best = found.objects[0]
     assert best.id == object_id, (query, found.matches[:3])
     assert found.confident, query  # Enter may take it
     if title is not None:
@@ -262,7 +263,8 @@ def test_satellites_find_no_galaxy_and_say_why(query: str) -> None:
     assert found.note is not None and "satellite" in found.note
 
 
-@pytest.mark.parametrize("query", ["Pinwheel", "Spindle Galaxy", "Al", "Polarissima", "Rosette", "Southern Ring Nebula"])
+@pytest.mark.parametrize("query", ["Pinwheel", "Spindle Galaxy", "Al", "Polarissima", "Rosette",
+                                   "Southern Ring Nebula"])
 def test_several_matches_are_never_chosen_for_the_user(query: str) -> None:
     found = find(query)
     assert len(found.objects) >= 2 and not found.confident
