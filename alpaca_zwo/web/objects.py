@@ -228,8 +228,9 @@ def _star(query: str) -> tuple[SkyObject, str] | None:
         return (found, f"HIP {int(m.group(1))}") if found else None
     for key in (_designation_key(query), fold(query)):
         obj = stars.by_key.get(key)
-        if obj is not None:
-            return obj, query.strip()
+        if obj is not None:  # matched by a designation it carries ("α Cen"), or by another name ("Agena")
+            written = [a for a in (obj.name, *obj.aliases) if key in (fold(a), fold(_latin_form(a)))]
+            return obj, written[0] if written else query.strip()
     return None
 
 
@@ -290,7 +291,7 @@ def _names_found(text: str, limit: int) -> Found:
         exact.append((_body(body), None))
     star = _star(text)
     if star:
-        exact.append((star[0], None if star[1] == star[0].name else star[1]))
+        exact.append((star[0], None if fold(star[1]) == fold(star[0].name) else star[1]))
     dso = deepsky.by_designation(text)
     if dso:
         exact.append((dso, None if fold(dso.name) == folded else text.strip()))

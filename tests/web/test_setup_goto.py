@@ -174,7 +174,7 @@ def test_search_over_http(client: Client) -> None:
     r = client.session.get(f"{client.base}/setup/api/objects", params={"q": "alpha Lyr"}, timeout=10)
     assert r.status_code == 200
     body = r.json()
-    assert body["matches"][0]["name"] == "Vega" and body["matches"][0]["matched"] == "alpha Lyr"
+    assert body["matches"][0]["name"] == "Vega" and body["matches"][0]["matched"] == "\u03b1 Lyr"
     assert body["confident"] is True and body["note"] is None
     r = client.session.get(f"{client.base}/setup/api/objects", params={"q": "5.588 -5.39"}, timeout=10)
     body = r.json()
