@@ -234,7 +234,8 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
         requests.put(base + "/api/v1/telescope/0/connected", data={{"Connected": "true"}}, timeout=10)
         requests.get(base + "/api/v1/telescope/0/rightascension", timeout=10).raise_for_status()
         requests.get(base + "/setup/api/telescope/0/status", timeout=10).raise_for_status()
-        names = ("ephem", "pyongc", "skyfield", "alpaca_zwo.web.objects")
+        names = ("ephem", "pyongc", "skyfield", "alpaca_zwo.web.objects", "alpaca_zwo.web.deepsky",
+                 "alpaca_zwo.web.coordinates", "alpaca_zwo.web.naming")
         before = [m for m in names if m in sys.modules]
         requests.get(base + "/setup/api/objects", params={{"q": "M31"}}, timeout=10).raise_for_status()
         after = [m for m in names if m in sys.modules]
@@ -245,7 +246,8 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
                          check=True)
     seen = json.loads(out.stdout.strip().splitlines()[-1])
     assert seen["before"] == []
-    assert {"ephem", "pyongc", "alpaca_zwo.web.objects"} <= set(seen["after"])  # a search loads them: the check sees
+    assert {"ephem", "pyongc", "alpaca_zwo.web.objects", "alpaca_zwo.web.deepsky",  # a search loads them:
+            "alpaca_zwo.web.coordinates"} <= set(seen["after"])  # the check sees
 
 
 def test_without_pyephem_the_page_says_what_to_install_and_the_rest_serves(tmp_path: Path) -> None:
