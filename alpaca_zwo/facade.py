@@ -43,6 +43,7 @@ from .mount.state import MountSettings, MountState
 from .sky import (
     SIDEREAL_DEG_S,
     SOLAR_SECONDS_PER_SIDEREAL_SECOND,
+    angular_separation,
     equatorial_to_horizontal,
     hour_angle,
     local_sidereal_time,
@@ -473,6 +474,7 @@ __all__ = [
     "Settings",
     "SettingsNotSaved",
     "StatusSource",
+    "angular_separation",
     "current_client",
     "equatorial_to_horizontal",
     "horizon_altitude_at",

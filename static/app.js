@@ -169,12 +169,58 @@
 
   const R = 100; // radius of the horizon (altitude 0)
   const MIN_ALT = -10; // the plot shows a little below the horizon
+  // The chart is the sky looking up, held with the horizon you face at the bottom. Facing the equator
+  // (where the Sun, Moon and planets are) is the default: south at the bottom in the northern hemisphere
+  // and at the equator, north at the bottom (south at the top, east on the right) in the southern;
+  // "Turn" faces the pole instead (docs/objects.md, "The chart's orientation").
+  const FACING_KEY = "alpaca-zwo-chart-facing";
+  const view = { up: 0, latitude: null }; // up: the azimuth at the top of the chart, 0 or 180
 
   function project(az, alt) {
     const a = Math.max(alt, MIN_ALT);
     const r = ((90 - a) / 90) * R;
-    const t = (az * Math.PI) / 180;
+    const t = ((az - view.up) * Math.PI) / 180;
     return [-r * Math.sin(t), -r * Math.cos(t)];
+  }
+
+  /** Alt/az (degrees) of a chart point (the inverse of project above the plot's lower edge). */
+  function unproject(x, y) {
+    const alt = 90 - (Math.hypot(x, y) / R) * 90;
+    const az = ((Math.atan2(-x, -y) * 180) / Math.PI + view.up + 720) % 360;
+    return [alt, az];
+  }
+
+  function facing() {
+    let stored = null;
+    try { stored = localStorage.getItem(FACING_KEY); } catch (_) { /* storage disabled */ }
+    return stored === "pole" ? "pole" : "equator";
+  }
+
+  /** Orient the chart for the site's latitude and the facing chosen; redraw everything if it turned. */
+  function orient(latitude) {
+    view.latitude = latitude;
+    const north = latitude >= 0; // the equator itself: as in the north (south at the bottom)
+    const up = north === (facing() === "equator") ? 0 : 180;
+    const bottom = up === 0 ? "south" : "north";
+    const towards = (bottom === "north") === north ? "the pole" : "the equator";
+    const other = bottom === "south" ? "north" : "south";
+    setText("sky-orientation", "Looking up, facing " + bottom + " (" + towards + "): " + bottom + " at the bottom, east on the " +
+      (up === 0 ? "left" : "right") + ". Rings at 0\u00b0, 30\u00b0 and 60\u00b0 altitude.", "muted small");
+    setText("sky-turn", "Face " + other + " (" + (towards === "the pole" ? "the equator" : "the pole") + ")", "ghost");
+    if (up === view.up && sky.bg) return;
+    view.up = up;
+    $("sky").replaceChildren();
+    state.floorKey = state.flipKey = state.limitKey = "";
+    buildSky();
+    if (state.status) drawSky(state.status);
+    document.dispatchEvent(new CustomEvent("alpaca-zwo-sky-turned", { detail: { up } }));
+  }
+
+  function bindTurn() {
+    $("sky-turn").addEventListener("click", () => {
+      try { localStorage.setItem(FACING_KEY, facing() === "pole" ? "equator" : "pole"); } catch (_) { /* not kept */ }
+      orient(view.latitude === null ? 0 : view.latitude);
+    });
   }
 
   function el(tag, attrs, parent) {
@@ -189,13 +235,13 @@
   function buildSky() {
     const svg = $("sky");
     const outer = ((90 - MIN_ALT) / 90) * R;
-    el("circle", { cx: 0, cy: 0, r: outer, class: "sky-bg" }, svg);
+    sky.bg = el("circle", { cx: 0, cy: 0, r: outer, class: "sky-bg" }, svg);
     sky.ground = el("path", { class: "sky-ground", d: "" }, svg);
     el("g", { id: "sky-chart" }, svg); // stars, constellation lines, Sun, Moon, planets: skychart.js
     for (const alt of [30, 60]) {
       el("circle", { cx: 0, cy: 0, r: ((90 - alt) / 90) * R, class: "sky-ring" }, svg);
-      const [, y] = project(180, alt);
-      const label = el("text", { x: 3, y: y - 2, class: "sky-small" }, svg);
+      const [, y] = project(view.up + 180, alt); // on the meridian below the zenith, clear of its line
+      const label = el("text", { x: 3, y: y - 2, class: "sky-small ring-label", "data-ring": ((90 - alt) / 90) * R }, svg);
       label.textContent = alt + "\u00b0";
     }
     el("circle", { cx: 0, cy: 0, r: R, class: "sky-horizon" }, svg);
@@ -210,7 +256,7 @@
     poleLabel.textContent = "pole";
     const labels = [["N", 0], ["E", 90], ["S", 180], ["W", 270]];
     for (const [name, az] of labels) {
-      const t = (az * Math.PI) / 180;
+      const t = ((az - view.up) * Math.PI) / 180;
       const r = outer + 8;
       const text = el("text", { x: -r * Math.sin(t), y: -r * Math.cos(t), class: "sky-label" + (name === "N" ? " north" : "") }, svg);
       text.textContent = name;
@@ -233,6 +279,8 @@
 
   function drawSky(s) {
     const geo = s.sky;
+    if (geo.latitude !== view.latitude) orient(geo.latitude);
+    const before = state.floorKey + state.flipKey + state.limitKey;
     const floorKey = JSON.stringify(geo.floor);
     if (floorKey !== state.floorKey) {
       state.floorKey = floorKey;
@@ -260,6 +308,9 @@
     }
     const [px, py] = project(geo.pole[0], geo.pole[1]);
     sky.pole.setAttribute("transform", "translate(" + px.toFixed(2) + " " + py.toFixed(2) + ")");
+    if (state.floorKey + state.flipKey + state.limitKey !== before) {
+      document.dispatchEvent(new Event("alpaca-zwo-sky-geometry")); // skychart.js places its labels clear of them
+    }
 
     const pos = s.position;
     if (!pos) {
@@ -277,10 +328,11 @@
     sky.title.textContent = "Alt " + pos.alt.toFixed(1) + "\u00b0, Az " + pos.az.toFixed(1) + "\u00b0";
 
     const last = state.trail[state.trail.length - 1];
-    if (!last || Math.hypot(last[0] - x, last[1] - y) > 0.3) {
-      state.trail.push([x, y]);
+    const [lx, ly] = last ? project(last[0], last[1]) : [Infinity, Infinity];
+    if (!last || Math.hypot(lx - x, ly - y) > 0.3 || !sky.trail.getAttribute("points")) {
+      if (!last || Math.hypot(lx - x, ly - y) > 0.3) state.trail.push([pos.az, pos.alt]);
       if (state.trail.length > TRAIL_POINTS) state.trail.shift();
-      sky.trail.setAttribute("points", state.trail.map((p) => p[0].toFixed(2) + "," + p[1].toFixed(2)).join(" "));
+      sky.trail.setAttribute("points", pointsText(state.trail));
     }
 
     if (s.target && s.slewing) {
@@ -905,7 +957,8 @@
 
   async function start() {
     bindNight();
-    buildSky();
+    bindTurn();
+    orient(0);
     $("trace-download").href = base + "/trace.txt";
     $("device-select").addEventListener("change", (ev) => {
       location.href = "/setup/v1/telescope/" + ev.target.value + "/setup";
@@ -931,7 +984,7 @@
   const statusListeners = [];
   window.alpacaZwo = Object.assign(window.alpacaZwo || {}, {
     base, request, post, message, poll, fmtHours, fmtDeg, fmtAz,
-    project, R, MIN_ALT, // the chart's projection, for skychart.js
+    project, unproject, R, MIN_ALT, // the chart's projection, for skychart.js
     onStatus: (listener) => { statusListeners.push(listener); },
   });
 

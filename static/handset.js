@@ -13,6 +13,9 @@
   const $ = (id) => document.getElementById(id);
   const DEBOUNCE_MS = 250;
   const MAX_MATCHES = 8;
+  const MAX_QUERY = 80; // the server's limit: longer text is no name or coordinates
+  const TOO_LONG = "That is longer than any name or coordinates (80 characters at most): type a name such as " +
+    "Vega, M31 or Omega Centauri, or coordinates such as 5h35m \u22125\u00b023\u2032.";
   const REFRESH_MS = 5000; // the selection's Alt/Az and limits, while it is shown
   const RATE_WINDOW_MS = 6000; // the approach rate is measured over this much recent time
   const ARRIVED_DEG = 0.05; // within this of the target at the end = arrived (else: stopped short)
@@ -21,7 +24,9 @@
 
   const hs = {
     matches: [],
-    active: -1,
+    active: -1, // the match Enter takes: the first only when the server is confident, else one the user chose
+    confident: false,
+    note: null, // the server's note on the last search (ambiguous coordinates, several matches, satellites)
     selected: null, // the /object description of the selection
     pending: null, // {verb, id} waiting for Confirm
     ours: null, // {name, kind} of the slew this page started, to name it on arrival
@@ -71,6 +76,21 @@
     return new Date(iso).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", hourCycle: "h23" });
   }
 
+  // "2026-11-26T19:02:00+09:00" (the server's site time) → "19:02": the clock as read at the site.
+  function siteClock(iso) {
+    return iso ? iso.slice(11, 16) : "\u2013";
+  }
+
+  function offsetMinutes(iso) {
+    const m = /([+-])(\d\d):(\d\d)$/.exec(iso || "");
+    return m ? (m[1] === "-" ? -1 : 1) * (Number(m[2]) * 60 + Number(m[3])) : 0;
+  }
+
+  function zoneText(minutes) {
+    const a = Math.abs(minutes);
+    return "UTC" + (minutes < 0 ? "\u2212" : "+") + Math.floor(a / 60) + (a % 60 ? ":" + String(a % 60).padStart(2, "0") : "");
+  }
+
   function where(pos) {
     return "RA " + hook.fmtHours(pos.ra) + ", Dec " + hook.fmtDeg(pos.dec) +
       " (Alt " + hook.fmtDeg(pos.alt) + ", Az " + hook.fmtAz(pos.az) + ")";
@@ -78,8 +98,11 @@
 
   // ------------------------------------------------------------------ search
 
+  // "M31 · Andromeda Galaxy — galaxy, mag 3.4": the name it matched by (or its best other name) beside the title.
   function matchText(m) {
-    return m.name + " \u2014 " + m.kind + (m.magnitude !== null && m.magnitude !== undefined ? ", mag " + m.magnitude.toFixed(1) : "");
+    const other = m.matched || (m.common_names && m.common_names[0]) || (m.aliases && m.aliases[0]) || "";
+    return m.name + (other && other !== m.name ? " \u00b7 " + other : "") + " \u2014 " + m.kind +
+      (m.magnitude !== null && m.magnitude !== undefined ? ", mag " + m.magnitude.toFixed(1) : "");
   }
 
   function renderMatches() {
@@ -107,10 +130,12 @@
     const seq = ++hs.searchSeq;
     const q = text.trim();
     hs.query = null;
-    if (!q) {
+    hs.confident = false;
+    hs.note = null;
+    if (!q || q.length > MAX_QUERY) {
       hs.matches = [];
       renderMatches();
-      setFindNote("");
+      setFindNote(q ? TOO_LONG : "");
       return hs.matches;
     }
     try {
@@ -118,8 +143,13 @@
       if (seq !== hs.searchSeq) return hs.matches; // a newer keystroke won
       hs.matches = data.matches.slice(0, MAX_MATCHES);
       hs.query = text;
-      hs.active = hs.matches.length ? 0 : -1;
-      setFindNote(hs.matches.length ? "" : "Nothing found for \u201c" + q + "\u201d.");
+      hs.confident = Boolean(data.confident) && hs.matches.length > 0;
+      hs.note = data.note || null;
+      hs.active = hs.confident ? 0 : -1;
+      // A question (which reading of these coordinates?) or a reason for nothing shows at once;
+      // "several match" only when Enter cannot choose.
+      const coordinates = hs.matches.length > 1 && hs.matches[0].id.startsWith("radec:");
+      setFindNote(!hs.matches.length ? hs.note || nothingFound(q) : coordinates ? hs.note : "");
     } catch (err) {
       if (seq !== hs.searchSeq) return hs.matches;
       hs.matches = [];
@@ -127,6 +157,11 @@
     }
     renderMatches();
     return hs.matches;
+  }
+
+  function nothingFound(q) {
+    return "Nothing found for \u201c" + q + "\u201d: try a name (Vega, Orion Nebula), a catalogue number " +
+      "(M42, NGC 2070, C80, HIP 71683) or coordinates (5h35m \u22125\u00b023\u2032).";
   }
 
   function setFindNote(text) {
@@ -144,7 +179,8 @@
       if (ev.key === "ArrowDown" || ev.key === "ArrowUp") {
         if (!hs.matches.length) return;
         ev.preventDefault();
-        hs.active = (hs.active + (ev.key === "ArrowDown" ? 1 : -1) + hs.matches.length) % hs.matches.length;
+        const n = hs.matches.length;
+        hs.active = hs.active < 0 ? (ev.key === "ArrowDown" ? 0 : n - 1) : (hs.active + (ev.key === "ArrowDown" ? 1 : -1) + n) % n;
         renderMatches();
       } else if (ev.key === "Escape") {
         hs.matches = [];
@@ -152,10 +188,12 @@
       } else if (ev.key === "Enter") {
         ev.preventDefault();
         clearTimeout(hs.searchTimer);
-        // Enter takes the highlighted match, or the best one for exactly what was typed.
-        let chosen = hs.query === input.value ? hs.matches[hs.active] : null;
-        if (!chosen) chosen = (await search(input.value))[0];
+        // Enter takes the match chosen with the arrow keys, or the first when the server is sure it is the
+        // one meant ("Vega", "M31"); otherwise it says why not and leaves the choice to the person.
+        if (hs.query !== input.value) await search(input.value);
+        const chosen = hs.matches[hs.active];
         if (chosen) select(chosen.id);
+        else if (hs.matches.length) setFindNote((hs.note || "Several objects match.") + " Use \u2193 and Enter, or tap one.");
       }
     });
   }
@@ -198,10 +236,23 @@
     dl.append(dt, dd);
   }
 
-  function riseSet(o) {
+  function riseSet(o, clock) {
     if (o.never_up) return "never rises here";
-    if (o.always_up) return "always up; transit " + fmtClock(o.transit);
-    return "rise " + fmtClock(o.rise) + " \u00b7 transit " + fmtClock(o.transit) + " \u00b7 set " + fmtClock(o.set);
+    if (o.always_up) return "always up; transit " + clock("transit");
+    return "rise " + clock("rise") + " \u00b7 transit " + clock("transit") + " \u00b7 set " + clock("set");
+  }
+
+  // Rise, transit and set at the site's clock, its zone named; and in this browser's zone when it differs
+  // (a page opened from another time zone than the telescope's).
+  function times(dl, o) {
+    const site = o.site_times || {};
+    fact(dl, "Tonight", riseSet(o, (k) => siteClock(site[k])) + (o.never_up ? "" : " (" + (o.site_zone || "site") + ", site time)"));
+    const at = site.transit || site.rise || site.set;
+    if (!at || o.never_up) return;
+    const browser = -new Date(at).getTimezoneOffset();
+    if (browser !== offsetMinutes(at)) {
+      fact(dl, "Your zone", riseSet(o, (k) => fmtClock(o[k])) + " (" + zoneText(browser) + ", this browser)");
+    }
   }
 
   function renderSelection() {
@@ -209,7 +260,9 @@
     show("selection", Boolean(o));
     if (!o) return;
     $("sel-name").textContent = o.name;
-    $("sel-kind").textContent = o.kind + (o.magnitude !== null && o.magnitude !== undefined ? " \u00b7 magnitude " + o.magnitude.toFixed(1) : "");
+    const names = [...(o.common_names || []).slice(0, 2), ...(o.aliases || []).filter((a) => !a.startsWith("HIP")).slice(0, 2)];
+    $("sel-kind").textContent = o.kind + (o.magnitude !== null && o.magnitude !== undefined ? " \u00b7 magnitude " + o.magnitude.toFixed(1) : "") +
+      (names.length ? " \u00b7 " + names.join(", ") : "");
     const dl = $("sel-facts");
     dl.replaceChildren();
     fact(dl, "Alt / Az", hook.fmtDeg(o.altitude) + " / " + hook.fmtAz(o.azimuth));
@@ -217,7 +270,7 @@
     const up = o.above_limits;
     fact(dl, "Limits", up ? "above the horizon and limits" : "below the horizon or limits (" + o.horizon_floor.toFixed(1) + "\u00b0 there)",
       up ? "yes" : "bad");
-    fact(dl, "Tonight", riseSet(o));
+    times(dl, o);
     fact(dl, "GoTo lands", o.destination_side_of_pier ? "pier " + PIER_WORDS[o.destination_side_of_pier] : "\u2013 (mount not connected)");
     $("btn-goto").classList.toggle("caution", !up);
   }

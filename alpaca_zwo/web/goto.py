@@ -22,7 +22,7 @@ from .context import Resource
 from .http import ApiError, api_errors, check_same_origin, iso, send
 
 if TYPE_CHECKING:
-    from .objects import Apparent, SkyObject
+    from .objects import Apparent, SiteZone, SkyObject
 
 log = logging.getLogger(__name__)
 
@@ -43,11 +43,18 @@ def _time(t: datetime | None) -> str | None:
     return iso(t) if t is not None else None
 
 
+def _site_time(t: datetime | None, zone: SiteZone) -> str | None:
+    """The instant in the site's zone, with its offset: "2026-11-26T19:02:00+09:00"."""
+    return t.astimezone(zone.zone).isoformat(timespec="seconds") if t is not None else None
+
+
 def _query(req: falcon.Request, name: str) -> str:
     value = req.get_param(name)
-    limit = _objects().MAX_QUERY
-    if not isinstance(value, str) or not value.strip() or len(value) > limit:
-        raise ApiError(400, f"{name} must be 1 to {limit} characters")
+    objects = _objects()
+    if not isinstance(value, str) or not value.strip():
+        raise ApiError(400, f"{name}: type a name or coordinates")
+    if len(value) > objects.MAX_QUERY:
+        raise ApiError(400, objects.TOO_LONG)
     return value
 
 
@@ -57,7 +64,7 @@ def _resolve(text: str) -> SkyObject:
         found: SkyObject = objects.lookup(text)
         return found
     except objects.ObjectError as exc:
-        raise ApiError(400 if "characters" in str(exc) or "RA must" in str(exc) else 404, str(exc)) from None
+        raise ApiError(400 if isinstance(exc, objects.QueryError) else 404, str(exc)) from None
 
 
 def _place(device: DeviceFacade, obj: SkyObject) -> Apparent:
@@ -68,16 +75,22 @@ def _place(device: DeviceFacade, obj: SkyObject) -> Apparent:
 
 
 def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
-    """What the page shows for a selection: the place now, whether a GoTo may go there, and how."""
+    """What the page shows for a selection: the place now, whether a GoTo may go there, and how; the
+    rise/transit/set instants in UTC and in the site's zone (``objects.site_zone``), with its name."""
     place = _place(device, obj)
     floor = device.horizon_floor(place.azimuth)
     side = device.destination_side_of_pier(place.ra_hours, place.dec_deg)
+    now = device.utc_now()
+    zone: SiteZone = _objects().site_zone(device.site()[1], now)
     return {
         **obj.to_json(),
         "ra": place.ra_hours, "dec": place.dec_deg, "frame": "topocentric apparent (equinox of date)",
         "altitude": place.altitude, "azimuth": place.azimuth,
         "horizon_floor": floor, "above_limits": place.altitude >= floor,
         "rise": _time(place.rise), "transit": _time(place.transit), "set": _time(place.set),
+        "site_zone": zone.label(now), "site_zone_source": zone.source,
+        "site_times": {"rise": _site_time(place.rise, zone), "transit": _site_time(place.transit, zone),
+                       "set": _site_time(place.set, zone)},
         "always_up": place.always_up, "never_up": place.never_up,
         "tracking_rate": obj.tracking_rate,
         "destination_side_of_pier": PIER_SIDES.get(side) if side is not None else None,
@@ -86,16 +99,19 @@ def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
 
 
 class ObjectSearch(Resource):
-    """``GET /setup/api/objects?q=``: matches, best first."""
+    """``GET /setup/api/objects?q=``: matches, best first, whether the first is surely the one meant
+    (the page's Enter takes only such a match) and a note for the person (ambiguous coordinates,
+    satellites, a catalogue number OpenNGC lacks)."""
 
     def on_get(self, req: falcon.Request, resp: falcon.Response) -> None:
         with api_errors(resp):
             objects = _objects()
             try:
-                matches = objects.search(_query(req, "q"))
+                found = objects.find(_query(req, "q"))
             except objects.ObjectError as exc:
                 raise ApiError(400, str(exc)) from None
-            send(resp, {"matches": [m.to_json() for m in matches]})
+            send(resp, {"matches": [{**obj.to_json(), "matched": how} for obj, how in found.matches],
+                        "confident": found.confident, "note": found.note})
 
 
 class ObjectDetails(Resource):

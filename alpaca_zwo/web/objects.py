@@ -1,12 +1,14 @@
-"""Find a sky object by name or coordinates, and where the mount must point for it now (issue 25).
+"""Find a sky object by name or coordinates, and where the mount must point for it now (issues 25 and 33).
 
 Pure: no server state. Positions come from packages and published catalogues, not tables of our own:
 PyEphem (VSOP87 planets, its Moon and Sun, and the apparent-place reduction), OpenNGC's database as
-pyongc ships it (deep-sky objects, Messier numbers, common names), and ``star_names.csv`` beside this
-module: the IAU WGSN's named stars (IAU-CSN: J2000 places, Vmag) with Hipparcos proper motions and
-Bayer/Flamsteed forms, keyed by HIP (``tools/make_star_names.py`` says where each column comes from).
-PyEphem and pyongc are imported on first use only: the Alpaca server starts and serves without them
-(tests/web/test_setup_goto.py checks ``sys.modules``).
+pyongc ships it (``deepsky``: deep-sky objects, Messier, Caldwell and other numbers, common names),
+``star_names.csv`` beside this module (the IAU WGSN's named stars: IAU-CSN J2000 places, Vmag, with
+Hipparcos proper motions and Bayer/Flamsteed forms, keyed by HIP; ``tools/make_star_names.py``) and
+``sky_data.json`` (the chart's Hipparcos stars to V 4.5, found by HIP number and designation;
+``tools/make_sky_data.py``). Typed coordinates are read by ``coordinates``, names compared by
+``naming``. PyEphem and pyongc are imported on first use only: the Alpaca server starts and serves
+without them (tests/web/test_setup_goto.py checks ``sys.modules``).
 
 Apparent places are in the mount's frame, ``EquatorialSystem`` 1 (topocentric, equinox of date):
 PyEphem's ``ra``/``dec`` for an observer are apparent topocentric of date (precession, nutation,
@@ -16,72 +18,83 @@ pressure set to 0 so no refraction enters them.
 
 from __future__ import annotations
 
-import contextlib
 import functools
+import json
 import math
 import re
-import sqlite3
 import unicodedata
-from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from collections.abc import Iterable
+from dataclasses import dataclass
+from datetime import datetime, timedelta, timezone, tzinfo
 from importlib import resources
-from pathlib import Path
 from typing import Any
 
+from . import coordinates, deepsky
+from .naming import (
+    GREEK,
+    GREEK_ABBREV,
+    LUNAR,
+    SIDEREAL,
+    SOLAR,
+    SkyObject,
+    fold,
+    name_key,
+    with_abbreviations,
+)
+
+__all__ = [
+    "LUNAR",
+    "MAX_QUERY",
+    "SIDEREAL",
+    "SOLAR",
+    "Apparent",
+    "Found",
+    "ObjectError",
+    "QueryError",
+    "Site",
+    "SiteZone",
+    "SkyObject",
+    "apparent",
+    "find",
+    "lookup",
+    "search",
+    "site_zone",
+]
+
 MAX_QUERY = 80  # characters: the longest name or coordinate form anyone types
-SIDEREAL, LUNAR, SOLAR = 0, 1, 2  # ASCOM DriveRates
+TOO_LONG = (f"That is longer than any name or coordinates ({MAX_QUERY} characters at most): "
+            "type a name such as Vega, M31 or Omega Centauri, or coordinates such as 5h35m −5°23′.")
 
 PLANETS = ("Mercury", "Venus", "Mars", "Jupiter", "Saturn", "Uranus", "Neptune")
 _BODY_KIND = {"Sun": "star (the Sun)", "Moon": "moon", **{p: "planet" for p in PLANETS}}
-_GREEK = {
-    "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "epsilon": "ε", "zeta": "ζ", "eta": "η",
-    "theta": "θ", "iota": "ι", "kappa": "κ", "lambda": "λ", "mu": "μ", "nu": "ν", "xi": "ξ", "omicron": "ο",
-    "pi": "π", "rho": "ρ", "sigma": "σ", "tau": "τ", "upsilon": "υ", "phi": "φ", "chi": "χ", "psi": "ψ",
-    "omega": "ω",
-}
-_GREEK_ABBREV = {name[:3]: letter for name, letter in _GREEK.items()}  # "Alp Lyr", the Bright Star Catalogue's
-_GREEK_ABBREV.update({"ups": "υ", "omi": "ο", "ome": "ω", "eps": "ε"})
-_DSO_KINDS = {
-    "*": "star", "**": "double star", "*Ass": "stellar association", "OCl": "open cluster",
-    "GCl": "globular cluster", "Cl+N": "cluster with nebula", "G": "galaxy", "GPair": "galaxy pair",
-    "GTrpl": "galaxy triplet", "GGroup": "galaxy group", "PN": "planetary nebula", "HII": "emission nebula",
-    "DrkN": "dark nebula", "EmN": "emission nebula", "Neb": "nebula", "RfN": "reflection nebula",
-    "SNR": "supernova remnant", "Nova": "nova",
-}
+SATELLITES = ("iss", "international space station", "tiangong", "css", "hst", "hubble space telescope",
+              "starlink", "satellite", "satellites")
+SATELLITE_NOTE = ("Satellites cross the sky in minutes: the hand controller points at catalogued places and does "
+                  "not track satellites (the ISS, Starlink); a satellite-tracking program can drive the mount "
+                  "through Alpaca instead.")
 
 
 class ObjectError(ValueError):
-    """A query or object id that names nothing (the page shows the message)."""
+    """An object id or name that names nothing (HTTP 404; the page shows the message)."""
+
+
+class QueryError(ObjectError):
+    """Text that cannot be a query: empty, too long, control characters, impossible or ambiguous
+    coordinates (HTTP 400; the message says what to type instead)."""
 
 
 @dataclass(frozen=True)
-class SkyObject:
-    """One thing to point at: catalogue place (J2000, degrees/hours) or a solar-system body by name."""
+class Found:
+    """What a search found: (object, the name or designation it matched by, if not its title), best first;
+    ``confident`` when the first is surely what was meant (Enter may take it); ``note`` for the person."""
 
-    id: str
-    name: str
-    kind: str
-    magnitude: float | None = None
-    ra_hours: float | None = None  # J2000
-    dec_deg: float | None = None
-    body: str | None = None  # "Moon", "Mars", ...; None for catalogue places
-    aliases: tuple[str, ...] = field(default=())
-    pm_ra_mas: float = 0.0  # proper motion, mas/yr (RA component times cos Dec), epoch J2000
-    pm_dec_mas: float = 0.0
+    matches: tuple[tuple[SkyObject, str | None], ...]
+    confident: bool
+    note: str | None = None
 
     @property
-    def tracking_rate(self) -> int:
-        """The ASCOM drive rate that keeps it centred: lunar, solar or sidereal."""
-        return LUNAR if self.body == "Moon" else SOLAR if self.body == "Sun" else SIDEREAL
-
-    @property
-    def is_sun(self) -> bool:
-        return self.body == "Sun"
-
-    def to_json(self) -> dict[str, Any]:
-        return {"id": self.id, "name": self.name, "kind": self.kind, "magnitude": self.magnitude,
-                "ra_j2000": self.ra_hours, "dec_j2000": self.dec_deg, "body": self.body,
-                "aliases": list(self.aliases)}
+    def objects(self) -> list[SkyObject]:
+        return [obj for obj, _ in self.matches]
 
 
 @dataclass(frozen=True)
@@ -106,35 +119,70 @@ class Apparent:
     never_up: bool
 
 
-# -- the catalogues, loaded once on first use ------------------------------------------------------
+# -- stars --------------------------------------------------------------------------------------------
 
 
-def _fold(text: str) -> str:
-    """Case, accents and spacing folded: "Alnaïr " and "alnair" are one key."""
-    text = unicodedata.normalize("NFKD", text.casefold())
-    return re.sub(r"\s+", " ", "".join(c for c in text if not unicodedata.combining(c))).strip()
+@dataclass(frozen=True)
+class _StarIndex:
+    by_key: dict[str, SkyObject]  # folded name or designation ("vega", "α lyr", "alpha lyr", "γ cas") -> star
+    by_hip: dict[int, SkyObject]
+    names: frozenset[str]  # the keys that are names, not designations
 
 
 @functools.lru_cache(maxsize=1)
-def _stars() -> dict[str, SkyObject]:
-    """The IAU-named stars (``star_names.csv``) by folded name and designation forms, plus the other
-    names PyEphem's star list knows them by ("Agena", "Alcaid"), matched by position."""
-    index: dict[str, SkyObject] = {}
+def _star_index() -> _StarIndex:
+    """The IAU-named stars (``star_names.csv``, with PyEphem's other names for them: "Agena", "Alcaid"),
+    then the chart's unnamed stars to V 4.5 (``sky_data.json``) by Bayer/Flamsteed designation and HIP."""
+    by_key: dict[str, SkyObject] = {}
+    by_hip: dict[int, SkyObject] = {}
+    names: set[str] = set()
     by_place: dict[tuple[float, float], SkyObject] = {}
     table = resources.files(__package__).joinpath("star_names.csv").read_text(encoding="utf-8")
     for line in table.splitlines():
         if not line[:1].isdigit():
             continue
-        _hip, name, vmag, ra, dec, pm_ra, pm_dec, designations = line.split(",", 7)
+        hip, name, vmag, ra, dec, pm_ra, pm_dec, designations = line.split(",", 7)
         aliases = tuple(d for d in designations.split(";") if d)
-        obj = SkyObject(f"star:{name}", name, "star", float(vmag), float(ra) / 15.0, float(dec), aliases=aliases,
-                        pm_ra_mas=float(pm_ra), pm_dec_mas=float(pm_dec))
-        for key in (name, *aliases, *(_latin_forms(a) for a in aliases)):
-            index.setdefault(_fold(key), obj)
+        obj = SkyObject(f"star:{name}", name, "star", float(vmag), float(ra) / 15.0, float(dec),
+                        aliases=(*aliases, f"HIP {hip}"), pm_ra_mas=float(pm_ra), pm_dec_mas=float(pm_dec))
+        names.add(fold(name))
+        _index(by_key, obj, (name, *aliases))
+        by_hip.setdefault(int(hip), obj)
         by_place[round(float(ra), 3), round(float(dec), 3)] = obj
     for key, obj in _ephem_star_names(by_place).items():
-        index.setdefault(key, obj)
-    return index
+        by_key.setdefault(key, obj)
+        names.add(key)
+    for hip, ra, dec, vmag, _name, designations, pm_ra, pm_dec in _chart_stars():
+        if hip in by_hip:
+            continue
+        forms = tuple(d for d in designations.split(";") if d)
+        obj = SkyObject(f"hip:{hip}", forms[0] if forms else f"HIP {hip}", "star", vmag, ra / 15.0, dec,
+                        aliases=(*forms[1:], f"HIP {hip}"), pm_ra_mas=pm_ra, pm_dec_mas=pm_dec)
+        _index(by_key, obj, forms)
+        by_hip[hip] = obj
+    return _StarIndex(by_key, by_hip, frozenset(names))
+
+
+def _index(by_key: dict[str, SkyObject], obj: SkyObject, forms: Iterable[str]) -> None:
+    """Each form of a star's name as a key; a designation several stars share ("α Cen": Rigil Kentaurus,
+    Toliman, Proxima) means the brightest."""
+    for form in forms:
+        for key in (fold(form), fold(_latin_form(form))):
+            held = by_key.get(key)
+            if held is None or (_brightness(obj) < _brightness(held) and key != fold(held.name)):
+                by_key[key] = obj
+
+
+def _brightness(obj: SkyObject) -> float:
+    return 99.0 if obj.magnitude is None else obj.magnitude
+
+
+@functools.lru_cache(maxsize=1)
+def _chart_stars() -> list[list[Any]]:
+    """``sky_data.json``'s stars: [hip, ra°, dec°, vmag, name|null, designations, pm RA, pm Dec]."""
+    data = json.loads(resources.files(__package__).joinpath("sky_data.json").read_text(encoding="utf-8"))
+    stars: list[list[Any]] = data["stars"]
+    return stars
 
 
 def _ephem_star_names(by_place: dict[tuple[float, float], SkyObject]) -> dict[str, SkyObject]:
@@ -146,143 +194,154 @@ def _ephem_star_names(by_place: dict[tuple[float, float], SkyObject]) -> dict[st
         star = ephem.stars.star(name)
         obj = by_place.get((round(math.degrees(float(star._ra)), 3), round(math.degrees(float(star._dec)), 3)))
         if obj is not None:
-            found[_fold(name)] = obj
+            found[fold(name)] = obj
     return found
 
 
-def _latin_forms(designation: str) -> str:
+def _latin_form(designation: str) -> str:
     """"α Lyr" → "alpha Lyr" (the form people type); numbers and Latin letters stay."""
     letter, _, rest = designation.partition(" ")
     base, digits = letter[:1], letter[1:]
-    for latin, greek in _GREEK.items():
+    for latin, greek in GREEK.items():
         if base == greek:
             return f"{latin}{digits} {rest}"
     return designation
 
 
 def _designation_key(query: str) -> str:
-    """"alp Lyr", "alpha1 Cru" → the Greek form the table holds ("α Lyr", "α1 Cru")."""
-    m = re.fullmatch(r"([a-z]+)(\d?)\s+([a-z]{3})", _fold(query))
+    """"alp Lyr", "alpha1 Cru", "Alpha Centauri" → the Greek form the table holds ("α Lyr", "α1 Cru", "α Cen")."""
+    folded = with_abbreviations(fold(query))
+    m = re.fullmatch(r"([a-z]+)(\d?)\s+([a-z]{3})", folded)
     if not m:
-        return _fold(query)
+        return folded
     word, digit, con = m.groups()
-    letter = _GREEK.get(word) or _GREEK_ABBREV.get(word)
-    return _fold(f"{letter}{digit} {con}") if letter else _fold(query)
+    letter = GREEK.get(word) or GREEK_ABBREV.get(word)
+    return fold(f"{letter}{digit} {con}") if letter else folded
 
 
-@functools.lru_cache(maxsize=1)
-def _ongc_path() -> Path:
-    """OpenNGC's database as pyongc ships it (read with sqlite3: ``pyongc.ongc`` would load numpy)."""
-    return Path(str(resources.files("pyongc").joinpath("ongc.db")))
-
-
-def _ongc(sql: str, params: tuple[Any, ...]) -> list[tuple[Any, ...]]:
-    """Rows of OpenNGC's database; none where pyongc is not installed (32-bit ARM without piwheels)."""
-    try:
-        path = _ongc_path()
-    except ModuleNotFoundError:
-        return []
-    with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
-        return db.execute(sql, params).fetchall()
-
-
-_DSO_COLUMNS = "name, type, ra, dec, vmag, bmag, messier, commonnames, ngc, ic"
-
-
-def _dso(row: tuple[Any, ...]) -> SkyObject | None:
-    name, kind, ra, dec, vmag, bmag, messier, common, ngc, ic = row
-    if kind == "Dup":  # a duplicate entry: the object lives under its NGC/IC name
-        target = f"NGC{ngc}" if ngc else f"IC{ic}" if ic else None
-        rows = _ongc(f"SELECT {_DSO_COLUMNS} FROM objects WHERE name = ?", (target,)) if target else []
-        return _dso(rows[0]) if rows and rows[0][1] != "Dup" else None
-    if ra is None or dec is None or kind == "NonEx":
-        return None
-    label = _pretty_designation(name)
-    names = [n for n in (common or "").split(",") if n]
-    title = f"M{int(messier)}" if messier else label
-    aliases = tuple(dict.fromkeys(a for a in (label, *names) if a != title))
-    mag = vmag if vmag is not None else bmag
-    return SkyObject(f"dso:{name}", title, _DSO_KINDS.get(kind, kind), mag, math.degrees(ra) / 15.0,
-                     math.degrees(dec), aliases=aliases)
-
-
-def _pretty_designation(name: str) -> str:
-    """"NGC0224" → "NGC 224"; OpenNGC's other names stay as they are."""
-    m = re.fullmatch(r"(NGC|IC)0*(\d+)(.*)", name)
-    return f"{m.group(1)} {m.group(2)}{m.group(3)}" if m else name
-
-
-def _catalogue_name(query: str) -> tuple[str, str] | None:
-    """("NGC", "0224") style keys of "NGC 224", "ngc224", "M 31", "IC434"; None for anything else."""
-    m = re.fullmatch(r"(m|messier|ngc|ic)\s*0*(\d{1,4})\s*([a-z]?)", _fold(query))
-    if not m:
-        return None
-    cat, number, suffix = m.groups()
-    if cat in ("m", "messier"):
-        return "M", f"{int(number):03d}"
-    return cat.upper(), f"{int(number):04d}{suffix.upper()}"
-
-
-def _dso_by_designation(query: str) -> SkyObject | None:
-    key = _catalogue_name(query)
-    if key is None:
-        return None
-    cat, number = key
-    if cat == "M":
-        rows = _ongc(f"SELECT {_DSO_COLUMNS} FROM objects WHERE messier = ? ORDER BY type = 'Dup'", (number,))
-    else:
-        rows = _ongc(f"SELECT {_DSO_COLUMNS} FROM objects WHERE name = ?", (f"{cat}{number}",))
-    for row in rows:
-        found = _dso(row)
-        if found is not None:
-            return found
+def _star(query: str) -> tuple[SkyObject, str] | None:
+    """The star a name, designation ("alpha Cen", "Alpha Centauri", "γ Cas") or "HIP 91262" names."""
+    stars = _star_index()
+    m = re.fullmatch(r"hip\s*(\d{1,6})", fold(query))
+    if m:
+        found = stars.by_hip.get(int(m.group(1)))
+        return (found, f"HIP {int(m.group(1))}") if found else None
+    for key in (_designation_key(query), fold(query)):
+        obj = stars.by_key.get(key)
+        if obj is not None:  # matched by a designation it carries ("α Cen"), or by another name ("Agena")
+            written = [a for a in (obj.name, *obj.aliases) if key in (fold(a), fold(_latin_form(a)))]
+            return obj, written[0] if written else query.strip()
     return None
 
 
-def _dso_by_common_name(query: str, limit: int) -> list[SkyObject]:
-    folded = _fold(query)
-    rows = _ongc(f"SELECT {_DSO_COLUMNS} FROM objects WHERE commonnames LIKE ? LIMIT 50", (f"%{query.strip()}%",))
-    found = [o for o in (_dso(r) for r in rows) if o is not None]
-    exact = [o for o in found if folded in (_fold(n) for n in (o.name, *o.aliases))]
-    rest = sorted((o for o in found if o not in exact), key=lambda o: (o.magnitude is None, o.magnitude or 0.0))
-    return list(dict.fromkeys(exact + rest))[:limit]
+def _star_prefixes(folded: str, exclude: SkyObject | None) -> list[tuple[SkyObject, str | None]]:
+    """Stars whose name begins so; designations only once a space shows one is meant ("alpha L"): "Al" is Altair."""
+    stars = _star_index()
+    found: dict[str, SkyObject] = {}
+    for key, obj in stars.by_key.items():
+        if key.startswith(folded) and obj is not exclude and (" " in folded or key in stars.names):
+            found.setdefault(obj.id, obj)
+    return [(o, None) for o in sorted(found.values(), key=_brightness)]
 
 
-# -- coordinates -------------------------------------------------------------------------------------
-
-_NUM = r"[+-]?\d+(?:\.\d*)?"
-_SEX = re.compile(
-    r"^(?P<rh>\d{1,2})(?:h|\s+|:)\s*(?P<rm>\d{1,2})(?:m|\s+|:)\s*(?P<rs>\d{1,2}(?:\.\d*)?)s?\s*,?\s+"
-    r"(?P<sign>[+-−]?)(?P<dd>\d{1,2})(?:°|d|\s+|:)\s*(?P<dm>\d{1,2})(?:'|′|m|\s+|:)\s*"
-    r"(?P<ds>\d{1,2}(?:\.\d*)?)(?:\"|″|''|s)?$")
-_DEC = re.compile(rf"^(?P<ra>{_NUM})\s*(?P<h>h?)\s*,?\s+(?P<dec>{_NUM})\s*°?$")
+# -- search and lookup ---------------------------------------------------------------------------------
 
 
-def parse_coordinates(text: str) -> tuple[float, float] | None:
-    """J2000 (RA hours, Dec degrees) from "5h35m17s -5°23'28\"", "05 35 17 -05 23 28", "83.82 -5.39"
-    (both in degrees) or "5.5877h -5.39"; None when the text is not coordinates. Out of range raises."""
-    text = text.strip().replace("−", "-")
-    m = _SEX.match(text)
-    if m:
-        ra = int(m["rh"]) + int(m["rm"]) / 60.0 + float(m["rs"]) / 3600.0
-        dec = int(m["dd"]) + int(m["dm"]) / 60.0 + float(m["ds"]) / 3600.0
-        dec = -dec if m["sign"] == "-" else dec
-        if int(m["rm"]) >= 60 or float(m["rs"]) >= 60 or int(m["dm"]) >= 60 or float(m["ds"]) >= 60:
-            raise ObjectError(f"{text!r}: minutes and seconds must be under 60")
-    else:
-        m = _DEC.match(text)
-        if not m:
-            return None
-        ra = float(m["ra"]) if m["h"] else float(m["ra"]) / 15.0
-        dec = float(m["dec"])
-    if not (0.0 <= ra < 24.0 and -90.0 <= dec <= 90.0):
-        raise ObjectError(f"{text!r}: RA must be 0..24 h (0..360°) and Dec -90..90°")
-    return ra, dec
+def search(query: str, limit: int = 8) -> list[SkyObject]:
+    """The matches for what someone typed, best first (:func:`find` without the notes)."""
+    return find(query, limit).objects
 
 
-def _coordinate_object(ra: float, dec: float) -> SkyObject:
+def find(query: str, limit: int = 8) -> Found:
+    """The matches for what someone typed, best first: exact names and designations, then names that begin
+    so, then names whose words begin so; typed coordinates (both readings when ambiguous)."""
+    text = query.strip()
+    if not text:
+        raise QueryError("type a name or coordinates")
+    if len(text) > MAX_QUERY:
+        raise QueryError(TOO_LONG)
+    if any(unicodedata.category(c)[0] == "C" for c in text):
+        raise QueryError("type a name or coordinates (letters, digits and signs only)")
+    try:
+        readings = coordinates.parse(text)
+    except coordinates.CoordinateError as exc:
+        raise QueryError(str(exc)) from None
+    if readings is not None:
+        return _coordinates_found(text, readings)
+    return _names_found(text, limit)
+
+
+def _coordinates_found(text: str, readings: list[coordinates.Reading]) -> Found:
+    found = tuple((_coordinate_object(r.ra_hours, r.dec_deg, r.ra_unit if r.ambiguous else None), None)
+                  for r in readings)
+    if len(found) == 1:
+        return Found(found, confident=True)
+    number = re.search(r"\d+(?:\.\d*)?", text)
+    first = number.group() if number else "the RA"
+    return Found(found, confident=False, note=(
+        f"Is {first} the RA in hours or in degrees? Choose one below, or type {first}h or {first}° to say which."))
+
+
+def _names_found(text: str, limit: int) -> Found:
+    folded = fold(text)
+    key = name_key(text)
+    exact: list[tuple[SkyObject, str | None]] = []
+    body = next((b for b in _BODY_KIND if fold(b) == key), None)
+    if body:
+        exact.append((_body(body), None))
+    star = _star(text)
+    if star:
+        exact.append((star[0], None if fold(star[1]) == fold(star[0].name) else star[1]))
+    dso = deepsky.by_designation(text)
+    if dso:
+        exact.append((dso, None if fold(dso.name) == folded else text.strip()))
+    named = deepsky.by_common_name(key) if key else {"exact": [], "prefix": [], "words": []}
+    exact += _as_matched(named["exact"])
+    prefix: list[tuple[SkyObject, str | None]] = [(_body(b), None) for b in _BODY_KIND
+                                                   if key and fold(b).startswith(key) and b != body]
+    prefix += _star_prefixes(folded, star[0] if star else None) if folded else []
+    prefix += _by_magnitude(_as_matched(named["prefix"]))
+    words = _by_magnitude(_as_matched(named["words"])) if len(key) >= 3 else []
+    first: dict[str, tuple[SkyObject, str | None]] = {}
+    for obj, how in exact + prefix + words:
+        first.setdefault(obj.id, (obj, how))
+    matches = tuple(first.values())[:limit]
+    distinct_exact = {obj.id for obj, _ in exact}
+    confident = len(distinct_exact) == 1 or (not exact and len(matches) == 1 and len(key) >= 3)
+    return Found(matches, confident, _note(text, key, matches, confident))
+
+
+def _as_matched(pairs: list[tuple[SkyObject, str]]) -> list[tuple[SkyObject, str | None]]:
+    return [(obj, None if how == obj.name else how) for obj, how in pairs]
+
+
+def _by_magnitude(pairs: list[tuple[SkyObject, str | None]]) -> list[tuple[SkyObject, str | None]]:
+    return sorted(pairs, key=lambda p: _brightness(p[0]))
+
+
+def _note(text: str, key: str, matches: tuple[tuple[SkyObject, str | None], ...], confident: bool) -> str | None:
+    if key in SATELLITES or key.startswith("starlink"):
+        return SATELLITE_NOTE
+    if matches and not confident:
+        return f"Several objects match \u201c{text.strip()}\u201d: choose one."
+    if matches:
+        return None
+    shape = deepsky.designation(text)
+    if shape is not None or re.fullmatch(r"hip\s*\d+", fold(text)):
+        return (f"{text.strip()} is not in the catalogues here (OpenNGC for deep-sky objects, with only Sh2-155 of "
+                "the Sharpless list; stars by HIP number to magnitude 4.5 and the IAU-named ones): "
+                "type its coordinates instead.")
+    return None
+
+
+def _body(name: str) -> SkyObject:
+    return SkyObject(f"body:{name}", name, _BODY_KIND[name], body=name)
+
+
+def _coordinate_object(ra: float, dec: float, reading: str | None = None) -> SkyObject:
     name = f"RA {_sexagesimal(ra)} Dec {_sexagesimal(dec, signed=True)}"
-    return SkyObject(f"radec:{ra:.7f},{dec:.6f}", name, "coordinates (J2000)", None, ra, dec)
+    kind = "coordinates (J2000)" + (f", RA read as {reading}" if reading else "")
+    return SkyObject(f"radec:{ra:.7f},{dec:.6f}", name, kind, None, ra, dec)
 
 
 def _sexagesimal(value: float, signed: bool = False) -> str:
@@ -291,61 +350,69 @@ def _sexagesimal(value: float, signed: bool = False) -> str:
     return f"{sign}{total // 3600:02d}:{total // 60 % 60:02d}:{total % 60:02d}"
 
 
-# -- search and lookup ---------------------------------------------------------------------------------
-
-
-def search(query: str, limit: int = 8) -> list[SkyObject]:
-    """The matches for what someone typed, best first (exact names, then prefixes, then the rest)."""
-    text = query.strip()
-    if not text or len(text) > MAX_QUERY or any(unicodedata.category(c)[0] == "C" for c in text):
-        raise ObjectError(f"type a name or coordinates (1 to {MAX_QUERY} characters)")
-    coords = parse_coordinates(text)
-    if coords is not None:
-        return [_coordinate_object(*coords)]
-    folded = _fold(text)
-    exact: list[SkyObject] = []
-    body = next((b for b in _BODY_KIND if _fold(b) == folded), None)
-    if body:
-        exact.append(_body(body))
-    star = _stars().get(_designation_key(text)) or _stars().get(folded)
-    if star:
-        exact.append(star)
-    dso = _dso_by_designation(text)
-    if dso:
-        exact.append(dso)
-    prefix = [_body(b) for b in _BODY_KIND if _fold(b).startswith(folded) and b != body]
-    # Prefixes of names; of designations only once a space shows one is meant ("alpha L"): "Al" is Altair.
-    prefix += sorted({o.id: o for k, o in _stars().items() if k.startswith(folded) and o is not star
-                      and (" " in folded or k == _fold(o.name))}.values(),
-                     key=lambda o: o.magnitude if o.magnitude is not None else 99.0)
-    more = _dso_by_common_name(text, limit) if len(folded) >= 3 else []
-    return list({o.id: o for o in exact + prefix + more}.values())[:limit]
-
-
-def _body(name: str) -> SkyObject:
-    return SkyObject(f"body:{name}", name, _BODY_KIND[name], body=name)
-
-
 def lookup(object_id: str) -> SkyObject:
-    """The object an id from :func:`search` names; any other text is searched and its best match taken."""
+    """The object an id from :func:`find` names; any other text is searched and its best match taken
+    (never one reading of ambiguous coordinates: that raises :class:`QueryError` saying so)."""
     kind, _, rest = object_id.partition(":")
+    found = _by_id(kind, rest)
+    if found is not None:
+        return found
+    result = find(object_id, 1)
+    if not result.matches:
+        raise ObjectError(result.note or f"nothing called {object_id.strip()!r} in the catalogues")
+    if not result.confident and result.matches[0][0].id.startswith("radec:"):
+        raise QueryError(f"{object_id.strip()!r}: is the RA in hours or in degrees? Write it with h or °")
+    return result.matches[0][0]
+
+
+def _by_id(kind: str, rest: str) -> SkyObject | None:
     if kind == "body" and rest in _BODY_KIND:
         return _body(rest)
-    if kind == "star" and _fold(rest) in _stars():
-        return _stars()[_fold(rest)]
+    if kind == "star" and fold(rest) in _star_index().names:
+        return _star_index().by_key[fold(rest)]
+    if kind == "hip" and rest.isdigit() and len(rest) <= 6:
+        return _star_index().by_hip.get(int(rest))
     if kind == "dso" and re.fullmatch(r"[A-Za-z0-9 +_.-]{1,40}", rest):
-        rows = _ongc(f"SELECT {_DSO_COLUMNS} FROM objects WHERE name = ?", (rest,))
-        found = _dso(rows[0]) if rows else None
-        if found:
-            return found
-    if kind == "radec":
-        coords = parse_coordinates(rest.replace(",", " ")) if "," in rest else None
-        if coords:
-            return _coordinate_object(float(rest.split(",")[0]), coords[1])
-    matches = search(object_id, 1)
-    if not matches:
-        raise ObjectError(f"nothing called {object_id.strip()!r} in the catalogues")
-    return matches[0]
+        return deepsky.by_name(rest)
+    m = re.fullmatch(r"(\d{1,2}(?:\.\d+)?),([+-]?\d{1,2}(?:\.\d+)?)", rest) if kind == "radec" else None
+    if m and 0.0 <= float(m.group(1)) < 24.0 and -90.0 <= float(m.group(2)) <= 90.0:
+        return _coordinate_object(float(m.group(1)), float(m.group(2)))
+    return None
+
+
+# -- the site's time zone ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SiteZone:
+    """The zone the page gives times in: the server's own when it fits the site's longitude, else the
+    longitude's nominal zone (``source`` says which)."""
+
+    zone: tzinfo
+    source: str  # "server" or "longitude"
+
+    def label(self, when: datetime) -> str:
+        offset = when.astimezone(self.zone).utcoffset() or timedelta(0)
+        minutes = round(offset.total_seconds() / 60)
+        sign = "+" if minutes >= 0 else "\u2212"
+        text = f"UTC{sign}{abs(minutes) // 60}" + (f":{abs(minutes) % 60:02d}" if minutes % 60 else "")
+        name = when.astimezone(self.zone).tzname()
+        return f"{name}, {text}" if name and not name.startswith(("UTC", "+", "-")) else text
+
+
+SERVER_ZONE_SLACK_H = 3.0  # zones reach this far from their longitude's (China's +8 at 75° E: 3 h)
+
+
+def site_zone(longitude: float, when: datetime, server_zone: tzinfo | None = None) -> SiteZone:
+    """The site's zone: a Pi at the telescope has its zone set (with daylight saving), so the server's zone
+    when its offset is within ``SERVER_ZONE_SLACK_H`` of the longitude's mean solar time; otherwise (a
+    container in UTC, a server far away) the longitude's nominal zone, UTC + round(longitude / 15) h."""
+    local = server_zone or datetime.now().astimezone().tzinfo
+    assert local is not None
+    offset = when.astimezone(local).utcoffset() or timedelta(0)
+    if abs(offset.total_seconds() / 3600.0 - longitude / 15.0) <= SERVER_ZONE_SLACK_H:
+        return SiteZone(local, "server")
+    return SiteZone(timezone(timedelta(hours=round(longitude / 15.0))), "longitude")
 
 
 # -- apparent place ------------------------------------------------------------------------------------

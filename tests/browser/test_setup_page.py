@@ -129,9 +129,13 @@ def test_changed_setting_persists_across_a_restart(browser: WebDriver, tmp_path:
     assert alpaca.value("sitelatitude") == -31.2733
     assert alpaca.value("sitelongitude") == 149.0617
     assert alpaca.value("siteelevation") == 1165
-    # The southern sky: the plot's pole marker moves to the south.
-    pole = browser.find_element(By.ID, "sky-pole").get_attribute("transform")
-    assert pole.startswith("translate(") and float(pole.split()[1].rstrip(")")) > 0
+    # The southern sky: the chart faces north (the equator), so the south celestial pole is up the chart and
+    # south's letter above north's (docs/objects.md, "The chart's orientation").
+    WebDriverWait(browser, 10).until(lambda d: "facing north" in text(d, "sky-orientation"))
+    pole = browser.find_element(By.ID, "sky-pole").get_attribute("transform") or ""
+    assert pole.startswith("translate(") and float(pole.split()[1].rstrip(")")) < 0
+    letters = {t.text: t.location["y"] for t in browser.find_elements(By.CSS_SELECTOR, "#sky > text.sky-label")}
+    assert letters["S"] < letters["N"], letters
 
 
 def test_stop_button_stops_a_slew(browser: WebDriver, server: AlpacaZwoServer, alpaca: AlpacaClient) -> None:

@@ -173,7 +173,43 @@ def test_junk_queries_get_4xx(client: Client, path: str, status: int) -> None:
 def test_search_over_http(client: Client) -> None:
     r = client.session.get(f"{client.base}/setup/api/objects", params={"q": "alpha Lyr"}, timeout=10)
     assert r.status_code == 200
-    assert r.json()["matches"][0]["name"] == "Vega"
+    body = r.json()
+    assert body["matches"][0]["name"] == "Vega" and body["matches"][0]["matched"] == "\u03b1 Lyr"
+    assert body["confident"] is True and body["note"] is None
+    r = client.session.get(f"{client.base}/setup/api/objects", params={"q": "5.588 -5.39"}, timeout=10)
+    body = r.json()
+    assert r.status_code == 200 and len(body["matches"]) == 2 and body["confident"] is False
+    assert "hours or in degrees" in body["note"]
+    body = client.session.get(f"{client.base}/setup/api/objects", params={"q": "ISS"}, timeout=10).json()
+    assert body == {"matches": [], "confident": False, "note": objects.SATELLITE_NOTE}
+    body = client.session.get(f"{client.base}/setup/api/objects", params={"q": "Andromeda"}, timeout=10).json()
+    assert (body["matches"][0]["name"], body["matches"][0]["matched"]) == ("M31", "Andromeda Galaxy")
+
+
+def test_a_long_query_gets_a_friendly_line(client: Client) -> None:
+    r = client.session.get(f"{client.base}/setup/api/objects", params={"q": "M" * 81}, timeout=10)
+    assert r.status_code == 400
+    assert r.json()["error"] == objects.TOO_LONG and "must be" not in r.json()["error"]
+    r = client.session.get(f"{client.base}/setup/api/telescope/0/object", params={"id": "5.588 -5.39"}, timeout=10)
+    assert r.status_code == 400 and "hours or in degrees" in r.json()["error"]
+
+
+def test_times_are_given_in_the_sites_zone(server_factory: ServerFactory) -> None:
+    """Site in Tokyo: rise/transit/set in its zone with the offset written in, and the zone named."""
+    tokyo = 139.6917
+    server = server_factory(make_settings(site=SiteSettings(latitude=35.6895, longitude=tokyo, elevation=40.0),
+                                          emulator=EmulatorSettings(baud=0)))
+    client = Client(f"http://127.0.0.1:{server.port}")
+    body = client.session.get(f"{client.api}/object", params={"id": "Mars"}, timeout=10).json()
+    now = datetime.now(timezone.utc)
+    zone = objects.site_zone(tokyo, now)
+    assert body["site_zone"] == zone.label(now) and "UTC+9" in body["site_zone"]
+    assert body["site_zone_source"] == zone.source
+    for key in ("rise", "transit", "set"):
+        utc = datetime.fromisoformat(body[key].replace("Z", "+00:00"))
+        site = datetime.fromisoformat(body["site_times"][key])
+        assert site == utc.replace(microsecond=0) or abs((site - utc).total_seconds()) < 1
+        assert body["site_times"][key].endswith("+09:00"), body["site_times"]
 
 
 def test_goto_needs_the_page_header(client: Client) -> None:
@@ -198,7 +234,8 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
         requests.put(base + "/api/v1/telescope/0/connected", data={{"Connected": "true"}}, timeout=10)
         requests.get(base + "/api/v1/telescope/0/rightascension", timeout=10).raise_for_status()
         requests.get(base + "/setup/api/telescope/0/status", timeout=10).raise_for_status()
-        names = ("ephem", "pyongc", "skyfield", "alpaca_zwo.web.objects")
+        names = ("ephem", "pyongc", "skyfield", "alpaca_zwo.web.objects", "alpaca_zwo.web.deepsky",
+                 "alpaca_zwo.web.coordinates", "alpaca_zwo.web.naming")
         before = [m for m in names if m in sys.modules]
         requests.get(base + "/setup/api/objects", params={{"q": "M31"}}, timeout=10).raise_for_status()
         after = [m for m in names if m in sys.modules]
@@ -209,7 +246,8 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
                          check=True)
     seen = json.loads(out.stdout.strip().splitlines()[-1])
     assert seen["before"] == []
-    assert {"ephem", "pyongc", "alpaca_zwo.web.objects"} <= set(seen["after"])  # a search loads them: the check sees
+    assert {"ephem", "pyongc", "alpaca_zwo.web.objects", "alpaca_zwo.web.deepsky",  # a search loads them:
+            "alpaca_zwo.web.coordinates"} <= set(seen["after"])  # the check sees
 
 
 def test_without_pyephem_the_page_says_what_to_install_and_the_rest_serves(tmp_path: Path) -> None:

@@ -1,4 +1,5 @@
-"""The sky chart's star list and lines (alpaca_zwo/web/sky_data.json) and its route (issue 25 item 2).
+"""The sky chart's star list and lines (alpaca_zwo/web/sky_data.json), its deep-sky objects (OpenNGC) and its
+route (issue 25 item 2, issue 33 item 6).
 
 The star positions are checked against the IAU WGSN's own J2000 places (star_names.csv, another source
 than the Hipparcos copy the file is built from); the route's alt/az against Skyfield with DE421.
@@ -13,7 +14,7 @@ import pytest
 from skyfield.api import Star, wgs84
 
 from alpaca_zwo.web import objects
-from alpaca_zwo.web.skyview import BODIES, catalogue, sky_now
+from alpaca_zwo.web.skyview import BODIES, catalogue, deep_sky, sky_now
 from tests.web.test_sky_objects import EPH, SKYFIELD_BODIES, TS, separation_arcsec
 
 SITE = (51.4769, -0.0005, 46.0)
@@ -33,7 +34,7 @@ def test_the_star_list_reaches_magnitude_4_5() -> None:
 
 def test_named_stars_sit_where_the_iau_catalogue_puts_them() -> None:
     checked = agree = 0
-    for hip, ra, dec, mag, name in catalogue()["stars"]:
+    for hip, ra, dec, mag, name, _designations, _pm_ra, _pm_dec in catalogue()["stars"]:
         if name is None:
             continue
         iau = objects.lookup("star:" + name)
@@ -89,3 +90,44 @@ def test_body_places_agree_with_skyfield() -> None:
         truth = _skyfield_altaz(EPH[SKYFIELD_BODIES[body["name"]]])
         assert _off_deg((body["alt"], body["az"]), truth) < 0.01, body  # the Moon topocentric (parallax ~1°)
         assert body["id"] == "body:" + body["name"] and objects.lookup(body["id"]).name == body["name"]
+
+
+def test_the_unnamed_stars_carry_designations_and_proper_motions() -> None:
+    stars = catalogue()["stars"]
+    assert catalogue()["fields"] == ["hip", "ra_deg", "dec_deg", "vmag", "name", "designations", "pmra_mas",
+                                     "pmdec_mas"]
+    gamma_cas = next(s for s in stars if s[0] == 4427)
+    assert gamma_cas[4] is None and gamma_cas[5].split(";")[0] == "γ Cas"
+    assert sum(1 for s in stars if s[5]) >= 0.95 * len(stars)  # Stellarium's name.fab: all but a few faint ones
+    barnard_like = max(stars, key=lambda s: math.hypot(s[6], s[7]))
+    assert math.hypot(barnard_like[6], barnard_like[7]) > 3000  # alpha Cen's 3.7″/yr: the motions are there
+    for star in stars:  # each is found by its HIP number, named or not
+        assert objects.lookup(f"HIP {star[0]}").ra_hours == pytest.approx(star[1] / 15, abs=2e-3)
+
+
+def test_the_deep_sky_objects_are_the_showpiece_lists_and_the_bright_ones() -> None:
+    dsos = deep_sky()
+    ids = [d[0] for d in dsos]
+    assert len(ids) == len(set(ids)) and 200 <= len(ids) <= 300
+    messier = {objects.lookup(f"M{n}").id for n in range(1, 111) if n != 102}  # M102: OpenNGC has no object
+    caldwell = {objects.lookup(f"C{n}").id for n in range(1, 110)}
+    assert messier <= set(ids) and caldwell <= set(ids)
+    for southern in ("LMC", "SMC", "Omega Centauri", "47 Tucanae", "Carina Nebula", "Jewel Box", "Coalsack"):
+        assert objects.lookup(southern).id in ids, southern
+    assert "dso:NGC0869" not in ids and "dso:NGC0884" not in ids  # the Double Cluster is drawn once, as C14
+    lmc = dsos[ids.index("dso:ESO056-115")]
+    assert lmc[1:5] == ["Large Magellanic Cloud", "LMC", "galaxy", "galaxy"] and lmc[8] > 10  # 10.8° across
+    shapes = {d[4] for d in dsos}
+    assert shapes == {"galaxy", "open", "globular", "nebula", "planetary", "dark"}
+    mags = [d[7] for d in dsos if d[7] is not None]
+    assert mags == sorted(mags)
+
+
+@pytest.mark.parametrize("name", ["M31", "LMC", "Omega Centauri", "M42"])
+def test_deep_sky_places_agree_with_skyfield(name: str) -> None:
+    now = sky_now(*SITE, WHEN)
+    obj = objects.lookup(name)
+    i = [d[0] for d in deep_sky()].index(obj.id)
+    assert len(now["dsos"]) == len(deep_sky())
+    truth = _skyfield_altaz(Star(ra_hours=obj.ra_hours, dec_degrees=obj.dec_deg))
+    assert _off_deg(tuple(now["dsos"][i]), truth) < 0.02
