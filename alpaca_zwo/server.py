@@ -24,7 +24,9 @@ from .clients import ClientRegistry
 from .config.settings import DeviceSettings, Settings
 from .config.store import SettingsStore
 from .facade import ServerFacade
+from .mount.host_clock import HostClockWatch
 from .mount.operations import Mount, utc_now
+from .mount.timekeeping import TimeKeeper
 from .telescope.device import Telescope
 from .zwo.link import Link
 
@@ -89,6 +91,9 @@ class AlpacaZwoServer:
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
         self._extra_routes_factory = extra_routes_factory
         self._facade: ServerFacade | None = None
+        #: Is this computer's clock synchronised? Read by every mount's time reference (mount/timekeeping.py).
+        self.host_clock = HostClockWatch()
+        self.gpsd: Any = None  # bridges.gpsd.GpsdSite when site.gpsd is set
         #: The DNS-rebinding guard; follows server.allowed_hosts live (no restart).
         self.host_guard = HostGuard(store.settings.server.allowed_hosts)
         store.subscribe(lambda settings: self.host_guard.set_allowed(settings.server.allowed_hosts))
@@ -135,8 +140,10 @@ class AlpacaZwoServer:
                 url, clock, monotonic, clock_rate = emulator.url, emulator.now, emulator.clock.seconds, speed
             self.emulators.append(emulator)
             link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)
-            mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate)
-            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry, clock=clock))
+            keeper = TimeKeeper(clock, monotonic, watch=self.host_clock, policy=lambda: self.settings.time.source)
+            mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate,
+                          time_keeper=keeper)
+            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry))
 
         server = settings.server
         info = ServerInfo(server_name="alpaca-zwo", manufacturer="alpaca-zwo project",
