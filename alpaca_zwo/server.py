@@ -164,6 +164,7 @@ class AlpacaZwoServer:
         self._start_stellarium()
 
         self._start_zwo_port()
+        self._start_gpsd()
 
         discovery_port = self.overrides.discovery_port
         if discovery_port is None:
@@ -204,6 +205,15 @@ class AlpacaZwoServer:
             log.error("ZWO-protocol port %s:%d could not be opened: %s", host, port, exc)
             return
         self.zwo_port = bridge
+
+    def _start_gpsd(self) -> None:
+        """The site from a GPS receiver through gpsd (site.gpsd), applied through Telescope 0."""
+        address = self.settings.site.gpsd
+        if not address or not self.telescopes:
+            return
+        from .bridges.gpsd import GpsdSite
+
+        self.gpsd = GpsdSite(self.telescopes[0], address).start()
 
     def _start_stellarium(self) -> None:
         """Stellarium's telescope server, bound to Telescope 0."""
@@ -253,10 +263,10 @@ class AlpacaZwoServer:
             return
         self._stopped.set()
         on_shutdown = self.settings.safety.on_shutdown
-        if self.stellarium is not None:
-            self.stellarium.stop()  # before the telescopes: Stellarium must not start a goto now
-        if self.zwo_port is not None:
-            self.zwo_port.stop()  # before the telescopes: no program may start motion during shutdown
+        # Before the telescopes: no program may start motion, and no site may be pushed, during shutdown.
+        for front in (self.stellarium, self.zwo_port, self.gpsd):
+            if front is not None:
+                front.stop()
         for telescope in self.telescopes:
             telescope.shutdown(park=on_shutdown == "park")
         if self.advertiser is not None:
