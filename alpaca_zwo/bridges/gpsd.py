@@ -86,6 +86,7 @@ class GpsdSite:
         self.connected = False
         self.last_error = ""
         self.mode = 0  # the last TPV's fix mode
+        self.position: tuple[float, float] | None = None  # the last 3D fix's latitude, longitude
         self._hold_start: float | None = None
         self._last_fix = 0.0
         self._samples: list[tuple[float, float, float | None]] = []
@@ -171,7 +172,7 @@ class GpsdSite:
                     self._lost(now)
             return
         with self._lock:
-            self.mode = 3
+            self.mode, self.position = 3, (lat, lon)
             if self._hold_start is None or now - self._last_fix > GAP_S:
                 self._hold_start, self._samples, self._decided = now, [], False
             self._last_fix = now
@@ -217,18 +218,19 @@ class GpsdSite:
         values = {"latitude": round(lat, 7), "longitude": round(lon, 7)}
         if elevation is not None:
             values["elevation"] = round(elevation, 1)
+        with self._lock:  # recorded first, so the page says "site from GPS" the moment the site changes
+            previous, self.applied = self.applied, {**values, "moved_m": round(moved, 1),
+                                                    "at": datetime.now(timezone.utc).isoformat()}
         try:
             self.telescope.set_site(values)
         except AlpacaError as exc:
             with self._lock:
+                self.applied = previous
                 self.last_error = f"the GPS site could not be applied: {exc.message}"
                 self._decided = False  # try again with the next hold
                 self._hold_start = None
             log.error("site from GPS: %s", self.last_error)
             return
-        applied = {**values, "moved_m": round(moved, 1), "at": datetime.now(timezone.utc).isoformat()}
-        with self._lock:
-            self.applied = applied
         log.warning("site from GPS: latitude %.6f, longitude %.6f, elevation %s m (%.0f m from the previous site)",
                     lat, lon, "unknown" if elevation is None else f"{elevation:.0f}", moved)
 
@@ -245,4 +247,6 @@ class GpsdSite:
             held = None if self._hold_start is None else round(now - self._hold_start, 1)
             return {"address": self.address, "connected": self.connected, "fix": {0: "none", 1: "none", 2: "2D",
                     3: "3D"}.get(self.mode, "none"), "fix_held_s": held, "applied": applied,
+                    "position": None if self.position is None else {"latitude": self.position[0],
+                                                                    "longitude": self.position[1]},
                     "site_from_gps": in_use, "last_error": self.last_error}
