@@ -77,6 +77,8 @@
     show("field-line", Boolean(text) || defaultSite);
     setText("time-source", sourceText(clock));
     $("time-source").title = clock.reason || "";
+    setText("time-reason", clock.reason ? "Time source: " + sourceText(clock) + ": " + clock.reason + ". Host clock: " +
+      clock.host_status + "." : "");
     setText("site-source", gps ? gpsText(gps) : (site.default ? "default (Greenwich): not set yet" : "set in the settings"));
   }
 
