@@ -21,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -40,6 +40,7 @@ from .clients import ClientActivity, ClientKey, current_client
 from .config.settings import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .motion import Motion, MotionKind
 from .mount.state import MountSettings, MountState
+from .mount.timekeeping import ClockView, TimeSource, describe_difference
 from .sky import (
     SIDEREAL_DEG_S,
     SOLAR_SECONDS_PER_SIDEREAL_SECOND,
@@ -69,6 +70,7 @@ class AlpacaZwoServer(Protocol):
     telescopes: list[Telescope]
     host_guard: HostGuard
     discovery: Any  # a DiscoveryResponder with a ``port``, or None when discovery is off
+    gpsd: Any  # bridges.gpsd.GpsdSite (a ``status()`` dict) when site.gpsd is set, else None
 
     @property
     def settings(self) -> Settings: ...
@@ -135,6 +137,16 @@ class MotionReport:
     ra: float | None
     ha: float | None
     dec: float | None
+
+
+@dataclass(frozen=True)
+class TimeSetReport:
+    """A time set from the page: the server's reference now and, when the mount took it, its read-back."""
+
+    utc: datetime
+    mount_set: bool  # False: the mount is not connected; it gets the time when it is
+    mount_utc: datetime | None = None  # the mount's clock as read back (whole seconds)
+    mount_difference_s: float | None = None  # that reading minus the server's time at the same instant
 
 
 def _quiet(getter: Callable[[], Any], default: Any) -> Any:
@@ -336,9 +348,23 @@ class DeviceFacade:
         """The guide rate as a fraction of sidereal (both axes share it on a ZWO mount)."""
         self._telescope.set_guide_rate_right_ascension(fraction * SIDEREAL_DEG_S)
 
-    def set_utc(self, value: datetime) -> datetime:
-        self._telescope.set_utc_date(value)
-        return self._telescope.utc_now()
+    def clock(self) -> ClockView:
+        """The time reference: its source (host, mount or client), why, and the host clock's standing."""
+        return self._telescope.mount.time.view()
+
+    def set_time(self, value: datetime, who: str) -> TimeSetReport:
+        """Set the server's and (when connected) the mount's time, then read the mount's clock back."""
+        telescope = self._telescope
+        if not telescope.set_time(value, who):
+            return TimeSetReport(telescope.utc_now(), False)
+        mount = telescope.mount
+        try:
+            mount_utc, at = mount.read_clock()
+        except (LinkError, ProtocolError, MountReplyError) as exc:
+            log.warning("the mount's clock could not be read back: %s", exc)
+            return TimeSetReport(telescope.utc_now(), True)
+        reference = telescope.utc_now() - timedelta(seconds=mount.monotonic() - at)
+        return TimeSetReport(telescope.utc_now(), True, mount_utc, (mount_utc - reference).total_seconds())
 
     # -- pointing at an object (web/goto.py): the same Telescope calls, limits and refusals as Alpaca --
 
@@ -438,6 +464,11 @@ class ServerFacade:
     def client_activity(self, window_s: float, now: float | None = None) -> list[ClientActivity]:
         return self._server.registry.snapshot(active_within=window_s, now=time.monotonic() if now is None else now)
 
+    def gps(self) -> dict[str, Any] | None:
+        """The GPS receiver's status (bridges/gpsd.py) when site.gpsd is set, else None."""
+        gpsd = self._server.gpsd
+        return dict(gpsd.status()) if gpsd is not None else None
+
     def bridges(self) -> list[dict[str, Any]]:
         """One status dict per running bridge, each with its ``name``; a failing status() shows its error."""
         rows = []
@@ -456,6 +487,7 @@ __all__ = [
     "SOLAR_SECONDS_PER_SIDEREAL_SECOND",
     "AlpacaError",
     "ClientKey",
+    "ClockView",
     "ConfigError",
     "DeviceFacade",
     "FacadeProvider",
@@ -474,8 +506,11 @@ __all__ = [
     "Settings",
     "SettingsNotSaved",
     "StatusSource",
+    "TimeSetReport",
+    "TimeSource",
     "angular_separation",
     "current_client",
+    "describe_difference",
     "equatorial_to_horizontal",
     "horizon_altitude_at",
     "hour_angle",

@@ -24,7 +24,9 @@ from .clients import ClientRegistry
 from .config.settings import DeviceSettings, Settings
 from .config.store import SettingsStore
 from .facade import ServerFacade
+from .mount.host_clock import HostClockWatch
 from .mount.operations import Mount, utc_now
+from .mount.timekeeping import TimeKeeper
 from .telescope.device import Telescope
 from .zwo.link import Link
 
@@ -89,6 +91,9 @@ class AlpacaZwoServer:
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
         self._extra_routes_factory = extra_routes_factory
         self._facade: ServerFacade | None = None
+        #: Is this computer's clock synchronised? Read by every mount's time reference (mount/timekeeping.py).
+        self.host_clock = HostClockWatch()
+        self.gpsd: Any = None  # bridges.gpsd.GpsdSite when site.gpsd is set
         #: The DNS-rebinding guard; follows server.allowed_hosts live (no restart).
         self.host_guard = HostGuard(store.settings.server.allowed_hosts)
         store.subscribe(lambda settings: self.host_guard.set_allowed(settings.server.allowed_hosts))
@@ -135,8 +140,10 @@ class AlpacaZwoServer:
                 url, clock, monotonic, clock_rate = emulator.url, emulator.now, emulator.clock.seconds, speed
             self.emulators.append(emulator)
             link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)
-            mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate)
-            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry, clock=clock))
+            keeper = TimeKeeper(clock, monotonic, watch=self.host_clock, policy=lambda: self.settings.time.source)
+            mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate,
+                          time_keeper=keeper)
+            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry))
 
         server = settings.server
         info = ServerInfo(server_name="alpaca-zwo", manufacturer="alpaca-zwo project",
@@ -157,6 +164,7 @@ class AlpacaZwoServer:
         self._start_stellarium()
 
         self._start_zwo_port()
+        self._start_gpsd()
 
         discovery_port = self.overrides.discovery_port
         if discovery_port is None:
@@ -197,6 +205,15 @@ class AlpacaZwoServer:
             log.error("ZWO-protocol port %s:%d could not be opened: %s", host, port, exc)
             return
         self.zwo_port = bridge
+
+    def _start_gpsd(self) -> None:
+        """The site from a GPS receiver through gpsd (site.gpsd), applied through Telescope 0."""
+        address = self.settings.site.gpsd
+        if not address or not self.telescopes:
+            return
+        from .bridges.gpsd import GpsdSite
+
+        self.gpsd = GpsdSite(self.telescopes[0], address).start()
 
     def _start_stellarium(self) -> None:
         """Stellarium's telescope server, bound to Telescope 0."""
@@ -247,10 +264,10 @@ class AlpacaZwoServer:
             return
         self._stopped.set()
         on_shutdown = self.settings.safety.on_shutdown
-        if self.stellarium is not None:
-            self.stellarium.stop()  # before the telescopes: Stellarium must not start a goto now
-        if self.zwo_port is not None:
-            self.zwo_port.stop()  # before the telescopes: no program may start motion during shutdown
+        # Before the telescopes: no program may start motion, and no site may be pushed, during shutdown.
+        for front in (self.stellarium, self.zwo_port, self.gpsd):
+            if front is not None:
+                front.stop()
         for telescope in self.telescopes:
             telescope.shutdown(park=on_shutdown == "park")
         if self.advertiser is not None:

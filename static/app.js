@@ -565,7 +565,9 @@
     if (polling) return;
     polling = true;
     try {
+      const sent = Date.now();
       const s = await request(base + "/status");
+      s.client_timing = { sent, received: Date.now() }; // fieldline.js compares this device's clock with the server's
       state.pollFailures = 0;
       renderStatus(s);
     } catch (err) {
@@ -689,10 +691,19 @@
   const GEO_INSTEAD = " Instead, type the latitude and longitude above (degrees; longitude east positive), " +
     "or copy them from your phone's GPS or compass app (or long-press your position in a map app), then press Save site.";
 
+  function geoInsecureText() {
+    return "Browsers share their location only with pages opened over https or as localhost on the same " +
+      "machine, and this page is " + location.origin + ", so this browser will not tell it." + GEO_INSTEAD;
+  }
+
+  function geoErrorText(err) {
+    return (err.code === 1 ? "This browser was not allowed to share its location."
+      : "This browser could not find its location (" + err.message + ").") + GEO_INSTEAD;
+  }
+
   function useBrowserLocation() {
     if (!navigator.geolocation || !window.isSecureContext) {
-      geoNote("Browsers share their location only with pages opened over https or as localhost on the same " +
-        "machine, and this page is " + location.origin + ", so this browser will not tell it." + GEO_INSTEAD);
+      geoNote(geoInsecureText());
       return;
     }
     geoNote("");
@@ -703,8 +714,7 @@
         if (p.coords.altitude !== null) $("site-elev").value = p.coords.altitude.toFixed(0);
         message("Location filled in from this browser; press Save site to use it.", "info");
       },
-      (err) => geoNote((err.code === 1 ? "This browser was not allowed to share its location."
-        : "This browser could not find its location (" + err.message + ").") + GEO_INSTEAD),
+      (err) => geoNote(geoErrorText(err)),
       { enableHighAccuracy: true, timeout: 20000 }
     );
   }
@@ -985,6 +995,7 @@
   window.alpacaZwo = Object.assign(window.alpacaZwo || {}, {
     base, request, post, message, poll, fmtHours, fmtDeg, fmtAz,
     project, unproject, R, MIN_ALT, // the chart's projection, for skychart.js
+    geoInsecureText, geoErrorText, // why a browser will not tell its position, for fieldline.js
     onStatus: (listener) => { statusListeners.push(listener); },
   });
 

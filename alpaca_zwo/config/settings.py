@@ -39,6 +39,7 @@ __all__ = [
     "Settings",
     "SiteSettings",
     "StellariumSettings",
+    "TimeSettings",
     "ZwoPortSettings",
     "assign_unique_ids",
     "horizon_altitude_at",
@@ -206,6 +207,17 @@ def _is_ipv6(name: str) -> bool:
     return True
 
 
+def _host_port(value: Any) -> str:
+    """``host:port`` (``[v6]:port`` for an IPv6 address), or empty."""
+    text = str(_str()(value)).strip()
+    if not text:
+        return ""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 1 <= int(port) <= 65535 or any(c.isspace() for c in host):
+        raise _Invalid(f"must be host:port, like \"localhost:2947\", got {text!r}")
+    return text
+
+
 def _setting(default: Any, check: Check) -> Any:
     """A dataclass field whose metadata carries the check used when loading."""
     return field(default=default, metadata={"check": check})
@@ -258,6 +270,15 @@ class SiteSettings:
     latitude: float = _setting(51.4769, _float(-90.0, 90.0))
     longitude: float = _setting(-0.0005, _float(-180.0, 180.0))
     elevation: float = _setting(46.0, _float(-300.0, 10000.0))
+    #: gpsd's address ("localhost:2947") to take the site from a GPS receiver; empty = off (bridges/gpsd.py).
+    gpsd: str = _setting("", _host_port)
+
+    @property
+    def is_default(self) -> bool:
+        """Still the factory site (Greenwich): nobody has told the server where it is."""
+        default = SiteSettings()
+        return (self.latitude, self.longitude, self.elevation) == (default.latitude, default.longitude,
+                                                                   default.elevation)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -371,6 +392,18 @@ class ZwoPortSettings:
     allowed_networks: tuple[str, ...] = _setting((LOCAL_NETWORKS,), _networks)
 
 
+@dataclass(frozen=True, kw_only=True)
+class TimeSettings:
+    """Whose clock is right when the computer's and the mount's disagree (mount/timekeeping.py).
+
+    ``auto``: the computer's when its operating system says it is synchronised (or cannot say), or when
+    the mount has no time; otherwise the mount's. ``host``: always the computer's (set into the mount at
+    connect). ``mount``: the mount's whenever it has one. A client's UTCDate always wins.
+    """
+
+    source: Literal["auto", "host", "mount"] = _setting("auto", _choice("auto", "host", "mount"))
+
+
 def _default_devices() -> tuple[DeviceSettings, ...]:
     return (DeviceSettings(),)
 
@@ -389,6 +422,7 @@ class Settings:
     emulator: EmulatorSettings = field(default_factory=EmulatorSettings)
     stellarium: StellariumSettings = field(default_factory=StellariumSettings)
     zwo_port: ZwoPortSettings = field(default_factory=ZwoPortSettings)
+    time: TimeSettings = field(default_factory=TimeSettings)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "devices", tuple(self.devices))
@@ -405,9 +439,10 @@ _SECTIONS: dict[str, type] = {
     "emulator": EmulatorSettings,
     "stellarium": StellariumSettings,
     "zwo_port": ZwoPortSettings,
+    "time": TimeSettings,
 }
 _TOP_LEVEL = ("server", "devices", "site", "park", "limits", "safety", "logging", "emulator", "stellarium",
-              "zwo_port")
+              "zwo_port", "time")
 
 
 # --- dict <-> settings --------------------------------------------------------------------------

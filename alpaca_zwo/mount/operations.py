@@ -32,6 +32,7 @@ from ..zwo.wire_values import Direction, MeridianSettings, MountStatus, TrackRat
 from .estimator import PositionEstimator, SyncRemainder, wire_position
 from .settings_cache import DEFAULT_REFRESH_S, SETTINGS_CHANGING, SettingsCache
 from .state import MountInfo, MountSettings, MountState
+from .timekeeping import TimeKeeper
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +58,9 @@ class Mount:
     """Typed operations on one ZWO mount, plus its state snapshot.
 
     ``site`` supplies the (latitude, east longitude) to push on connect and after a mount
-    reboot; ``clock`` is the host's UTC clock (an emulator running fast supplies its own).
+    reboot; ``clock`` is the host's UTC clock (an emulator running fast supplies its own);
+    ``time_keeper`` the time reference built on it (``timekeeping.py``: whose clock is right, and
+    whether the mount's clock is set at connect), a default one when not given.
     """
 
     def __init__(
@@ -72,6 +75,7 @@ class Mount:
         monotonic: Callable[[], float] = time.monotonic,
         clock_rate: float = 1.0,
         settings_refresh_s: float = DEFAULT_REFRESH_S,
+        time_keeper: TimeKeeper | None = None,
     ) -> None:
         self.link = link
         #: Mount time in seconds: pulse windows, motion and reading ages are measured on it. It is
@@ -95,8 +99,8 @@ class Mount:
         self._move_directions: dict[int, Direction] = {}
         #: Sky rates (deg/s) of the slow moves that carry a tracking rate offset (see drift()).
         self._drift = [0.0, 0.0]
-        #: Added to the host clock when the mount's time is pushed (a client may set UTCDate).
-        self.clock_offset = timedelta(0)
+        #: The one time reference: what UTCDate, the page and the bridges read, what a push sends.
+        self.time = time_keeper or TimeKeeper(clock, monotonic)
         self._goto_target: tuple[float, float] | None = None  # in the mount's frame
         #: The last sync's sub-second rest (estimator.SyncRemainder); the estimator and the goto
         #: target are in the mount's frame, everything published and returned is in the client's.
@@ -221,7 +225,7 @@ class Mount:
             self._check_restart(status, mount_date.year <= 2000)
             if mount_date.year <= 2000:
                 log.info("mount %s reports date %s: time and site not set since power-up", info.model, mount_date)
-            self.push_time()
+            self._settle_clock(clock_lost=mount_date.year <= 2000)
             latitude, longitude = self._site()
             self.push_site(latitude, longitude)
             guide_rate = self._exec(protocol.query("Ggr"))
@@ -255,7 +259,7 @@ class Mount:
         self._exec(protocol.set_utc_offset(offset.total_seconds() / 3600.0))
         transit_real = len(protocol.set_time(datetime.min.time()).wire) * 10.0 / self.link.baud \
             if self.link.baud else 0.0
-        now = self.clock() + self.clock_offset
+        now = self.time.now()
         boundary = now.replace(microsecond=0) + timedelta(seconds=1)
         wait_real = (boundary - now).total_seconds() / self._clock_rate - transit_real
         while wait_real < 0.0:  # too close: a fast emulator's second can be shorter than the transit
@@ -266,6 +270,46 @@ class Mount:
         self.link.execute(protocol.set_time(local.time()), Priority.COMMAND)
         self._exec(protocol.set_date(local.date()))
         self._reread_position()  # a new clock moves every RA reading by an amount only the mount knows
+
+    def _settle_clock(self, clock_lost: bool) -> None:
+        """Set the mount's clock, or keep it and adopt its time (``timekeeping.py`` decides why)."""
+        if clock_lost:
+            self.time.mount_without_time()
+            self.push_time()
+            return
+        mount_utc, at = self.read_clock(precise=True) if self.time.wants_mount_clock() else (None, 0.0)
+        if not self.time.at_connect(mount_utc, at):
+            self.push_time()
+
+    def read_clock(self, precise: bool = False, priority: Priority = Priority.COMMAND) -> tuple[datetime, float]:
+        """The mount's UTC (date, local time, zone, daylight saving) and the mount-monotonic instant it
+        refers to.
+
+        The mount keeps whole seconds. ``precise`` reads ``:GL#`` until its second changes (at most
+        a little over one second of short exchanges), so the instant is the start of that second
+        to within one exchange; otherwise one reading, taken as the middle of its second.
+        """
+        zone = self._exec(protocol.query("GG"), priority)
+        dst = self._try(protocol.query("GH"), priority) is True
+        day_before = self._exec(protocol.query("GC"), priority)
+        reply_s = 9 * 10.0 / self.link.baud if self.link.baud else 0.0  # "HH:MM:SS#" on its way back
+        first = self._exec(protocol.query("GL"), priority)
+        before = self.monotonic() - reply_s * self._clock_rate
+        reading, at = first, before - 0.5  # on average, its second began half a second ago
+        deadline = before + 1.5  # mount seconds: one tick of its clock and a margin
+        while precise and self.monotonic() < deadline:
+            reading = self._exec(protocol.query("GL"), priority)
+            after = self.monotonic() - reply_s * self._clock_rate
+            if reading != first:
+                at = (before + after) / 2.0  # the second began between the two readings
+                break
+            before = after
+        day = self._exec(protocol.query("GC"), priority)
+        if day != day_before and reading.hour != 0:
+            day = day_before  # midnight passed after the reading: it belongs to the earlier day
+        local = datetime.combine(day, reading)
+        utc = local - timedelta(hours=zone + (1.0 if dst else 0.0))
+        return utc.replace(tzinfo=timezone.utc), at
 
     def push_site(self, latitude: float, east_longitude: float) -> None:
         """Set the mount's site; the position is read again before this returns (see _reread_position)."""
@@ -646,6 +690,7 @@ class Mount:
                     self.ensure_initialised()
                 self.poll_once()
                 self._refresh_settings()
+                self._follow_host_clock()
             except AlpacaZwoError as exc:
                 log.debug("poll failed: %s", exc)
                 self._publish(poll_error=str(exc))
@@ -656,6 +701,11 @@ class Mount:
         any of them on the urgent lane, so a refresh never holds up motion by more than one short query."""
         if not self._busy() and self.settings_cache.due():
             self.read_settings(Priority.POLL)
+
+    def _follow_host_clock(self) -> None:
+        """At rest: a host clock that became synchronised takes over from a kept mount clock, and sets it."""
+        if not self._busy() and self.time.host_regained():
+            self.push_time()
 
     def _busy(self) -> bool:
         """Something moves (an axis, a GOTO, a pulse): the poller polls fast and refreshes no settings."""

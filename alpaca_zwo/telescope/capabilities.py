@@ -249,7 +249,10 @@ class Capabilities:
         Saved first, pushed to the mount after: a failed save (SettingsNotSaved) changes nothing; a
         mount that then fails to take it keeps the old site until the next connect pushes the saved one.
         """
-        site = dataclasses.replace(self.settings.site, **changes)
+        now = self.settings.site
+        site = dataclasses.replace(now, latitude=changes.get("latitude", now.latitude),
+                                   longitude=changes.get("longitude", now.longitude),
+                                   elevation=changes.get("elevation", now.elevation))
         self.store.update(lambda s: dataclasses.replace(s, site=site))
         if self.mount.running and ("latitude" in changes or "longitude" in changes):
             with mount_errors("setting the site"):

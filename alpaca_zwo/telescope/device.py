@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from datetime import datetime, timedelta, timezone
 
 from .. import __version__, sky
@@ -85,7 +85,6 @@ class Telescope:
         device_index: int = 0,
         *,
         registry: ClientRegistry | None = None,
-        clock: Callable[[], datetime] | None = None,
         linger_s: float = LINGER_S,
         link_grace_s: float = LINK_GRACE_S,
     ) -> None:
@@ -93,11 +92,9 @@ class Telescope:
         self.store = store
         self.device_index = device_index
         self.registry = registry or ClientRegistry()
-        self.clock = clock or mount.clock
         self._target_ra: float | None = None
         self._target_dec: float | None = None
         self._settle_s = 0
-        self._utc_offset = timedelta(0)
         self.motion = MotionSupervisor(mount, lambda: self.store.settings, self._lst, self.registry,
                                        name=f"motion-{device_index}")
         self.connection = Connection(mount=mount, motion=self.motion, settings=lambda: self.store.settings,
@@ -272,7 +269,8 @@ class Telescope:
         return position
 
     def utc_now(self) -> datetime:
-        return self.clock() + self._utc_offset
+        """The server's time reference for this mount (mount/timekeeping.py): what every reading uses."""
+        return self.mount.time.now()
 
     def _lst(self, now: datetime | None = None) -> float:
         return sky.local_sidereal_time(now or self.utc_now(), self.settings.site.longitude)
@@ -303,15 +301,23 @@ class Telescope:
 
     def set_utc_date(self, value: datetime) -> None:
         self.connection.require_connected()
+        caller = current_client.get()
+        who = f"client {caller.address} #{caller.client_id} (UTCDate)" if caller else "a client (UTCDate)"
+        self.set_time(value, who)
+
+    def set_time(self, value: datetime, who: str) -> bool:
+        """The strongest time source (a client's UTCDate, a program on the ZWO port, a person on the page):
+        the server's reference from now on, and the mount's clock when the link is up (True: it was set)."""
         value = _utc(value)
         if not MOUNT_EPOCH_FIRST <= value <= MOUNT_EPOCH_LAST:
             raise InvalidValue(
                 f"UTCDate {value.isoformat()} is outside 2000-2099, the years the mount's clock can hold")
-        self._utc_offset = value - self.clock()
-        log.info("UTCDate set: clock offset now %.3f s", self._utc_offset.total_seconds())
+        self.mount.time.set_by_client(value, who)
+        if not (self.mount.running and self.mount.link.status.connected):
+            return False  # the mount gets it when it is connected (a client's time is pushed at connect)
         with mount_errors("setting the mount clock"):
-            self.mount.clock_offset = self._utc_offset
             self.mount.push_time()
+        return True
 
     def tracking(self) -> bool:
         state = self._state()

@@ -10,12 +10,12 @@ import dataclasses
 import json
 import logging
 from collections.abc import Callable
-from datetime import datetime, timezone
+from datetime import datetime, timedelta, timezone
 from typing import Any
 
 import falcon
 
-from ..facade import DeviceFacade, current_client
+from ..facade import DeviceFacade, TimeSetReport, current_client
 from .context import Resource
 from .http import ApiError, api_errors, check_same_origin, flag, integer, iso, number, send
 
@@ -47,7 +47,18 @@ def _set_time(d: DeviceFacade, body: dict[str, Any]) -> dict[str, Any]:
         value = value.astimezone(timezone.utc)  # year 1 at +23:59 is before the first datetime
     except OverflowError:
         raise ApiError(400, f"utc {raw!r} is outside the years 1 to 9999 once converted to UTC") from None
-    return {"utc": iso(d.set_utc(value))}
+    if "round_trip_ms" in body:  # the browser's send time, carried to when the request arrived
+        try:
+            value += timedelta(milliseconds=number(body, "round_trip_ms", 0, 60000) / 2.0)
+        except OverflowError:
+            raise ApiError(400, f"utc {raw!r} is outside the years 1 to 9999") from None
+    return _time_report(d.set_time(value, "a browser on the setup page"))
+
+
+def _time_report(report: TimeSetReport) -> dict[str, Any]:
+    return {"utc": iso(report.utc), "mount_set": report.mount_set,
+            "mount_utc": iso(report.mount_utc) if report.mount_utc else None,
+            "mount_difference_s": None if report.mount_difference_s is None else round(report.mount_difference_s, 3)}
 
 
 def _set_park(d: DeviceFacade, body: dict[str, Any]) -> dict[str, Any]:

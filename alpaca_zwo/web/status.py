@@ -16,6 +16,7 @@ import falcon
 from ..facade import (
     SOLAR_SECONDS_PER_SIDEREAL_SECOND,
     ClientKey,
+    ClockView,
     DeviceFacade,
     MotionReport,
     MotionView,
@@ -63,7 +64,9 @@ def status_view(facade: ServerFacade, device: DeviceFacade, page_key: ClientKey)
         "device": device.index,
         "name": device.name,
         "time": {"utc": iso(now), "lst": finite(lst, 7),
-                 "offset_s": finite((now - datetime.now(timezone.utc)).total_seconds(), 3)},
+                 "offset_s": finite((now - datetime.now(timezone.utc)).total_seconds(), 3),
+                 **clock_view(device.clock())},
+        "site": site_view(facade),
         "connected": device.running,
         "page_connected": page_key in connected_keys,
         "mount": {"model": state.info.model, "firmware": state.info.firmware} if state.info else None,
@@ -83,6 +86,22 @@ def status_view(facade: ServerFacade, device: DeviceFacade, page_key: ClientKey)
         "sky": sky_view(settings, device, meridian["limit_deg"]),
         "bridges": facade.bridges(),
     }
+
+
+def clock_view(clock: ClockView) -> dict[str, Any]:
+    """Which clock the server keeps and why, and the host clock's standing (mount/timekeeping.py)."""
+    last = clock.host_last_synchronised
+    return {"source": clock.source.value, "reason": clock.reason, "policy": clock.policy,
+            "host_offset_s": finite(clock.offset_s, 3), "host_synchronised": clock.host.synchronised,
+            "host_status": clock.host.detail, "host_last_synchronised": iso(last) if last else None,
+            "decided_at": iso(clock.decided_at) if clock.decided_at else None}
+
+
+def site_view(facade: ServerFacade) -> dict[str, Any]:
+    """The site in use, whether it is still the factory default, and the GPS receiver's state (site.gpsd)."""
+    site = facade.settings.site
+    return {"latitude": site.latitude, "longitude": site.longitude, "elevation": site.elevation,
+            "default": site.is_default, "gps": facade.gps()}
 
 
 def _pier(code: int | None) -> str | None:

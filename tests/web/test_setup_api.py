@@ -400,7 +400,7 @@ def test_control_errors_are_json(client: Client) -> None:
 
 def test_site_settings_apply_to_the_alpaca_api(client: Client) -> None:
     result = client.change({"site": {"latitude": -33.8568, "longitude": 151.2153, "elevation": 58.5}})
-    assert result["site"] == {"latitude": -33.8568, "longitude": 151.2153, "elevation": 58.5}
+    assert result["site"] == {"latitude": -33.8568, "longitude": 151.2153, "elevation": 58.5, "gpsd": ""}
     assert client.value("sitelatitude") == -33.8568
     assert client.value("sitelongitude") == 151.2153
     assert client.value("siteelevation") == 58.5
@@ -507,7 +507,7 @@ def test_settings_persist_across_a_restart(tmp_path: Path, server_factory: Calla
     second = server_factory(load_settings(tmp_path / "persist.toml"), config_name="persist.toml")
     c2 = Client(f"http://127.0.0.1:{second.port}")
     s = c2.settings()
-    assert s["site"] == {"latitude": 40.4168, "longitude": -3.7038, "elevation": 667.0}
+    assert s["site"] == {"latitude": 40.4168, "longitude": -3.7038, "elevation": 667.0, "gpsd": ""}
     assert s["park"] == {"mode": "custom", "ha_hours": -2.0, "dec_deg": 10.0}
     assert s["limits"]["min_altitude_deg"] == 12.5 and s["limits"]["horizon"] == [[100.0, 20.0]]
     assert c2.value("sitelatitude") == 40.4168

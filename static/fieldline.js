@@ -1,0 +1,159 @@
+/* alpaca-zwo in the field (issue 31): one line near the top when the clock or the site needs a person.
+ *
+ * - This device's clock against the server's, measured on every status poll (the server's time at the
+ *   middle of the request's round trip; the sample with the shortest round trip of the last few wins).
+ *   More than 2 s apart: "The server's clock is 3 h 0 min behind this phone's" and a button,
+ *   Use this device's time, which sends this device's time, carried forward by half the round trip, and
+ *   shows the mount's clock as read back by the server.
+ * - The server keeping the mount's clock (its own is not synchronised) is said here too.
+ * - While the site is still the factory default, the line offers this device's position (browsers give
+ *   it only to secure pages: the same explanation as the Site form's button).
+ * Built on app.js's hook (window.alpacaZwo), like handset.js.
+ */
+"use strict";
+
+(function () {
+  const hook = window.alpacaZwo;
+  if (!hook) return;
+  const $ = (id) => document.getElementById(id);
+  const TOLERANCE_S = 2;
+  const SAMPLES = 8;
+  const fl = { samples: [], status: null, busy: false };
+
+  // "3 h 0 min", "12 min 5 s", "4.2 s": as the server words a clock difference.
+  function difference(seconds) {
+    const s = Math.abs(seconds);
+    if (s < 60) return s.toFixed(1) + " s";
+    const minutes = Math.floor(s / 60);
+    if (minutes < 60) return minutes + " min " + Math.floor(s % 60) + " s";
+    const hours = Math.floor(minutes / 60);
+    if (hours < 48) return hours + " h " + (minutes % 60) + " min";
+    return Math.floor(hours / 24) + " d " + (hours % 24) + " h";
+  }
+
+  const deviceWord = () => (navigator.maxTouchPoints > 0 ? "phone's" : "device's");
+
+  // The server's clock minus this device's, in seconds, from the best recent sample (null: none yet).
+  function measure(s) {
+    const timing = s.client_timing;
+    if (!timing) return null;
+    const rtt = timing.received - timing.sent;
+    const offset = (Date.parse(s.time.utc) - (timing.sent + timing.received) / 2) / 1000;
+    fl.samples.push({ offset, rtt });
+    if (fl.samples.length > SAMPLES) fl.samples.shift();
+    return fl.samples.reduce((best, x) => (x.rtt < best.rtt ? x : best)).offset;
+  }
+
+  function bestRoundTrip() {
+    return fl.samples.length ? Math.min(...fl.samples.map((x) => x.rtt)) : 0;
+  }
+
+  function show(id, on) {
+    $(id).classList.toggle("hidden", !on);
+  }
+
+  function render(s) {
+    fl.status = s;
+    const offset = measure(s);
+    const wrong = offset !== null && Math.abs(offset) > TOLERANCE_S;
+    const clock = s.time || {};
+    let text = "";
+    if (wrong) {
+      text = "The server's clock is " + difference(offset) + " " + (offset < 0 ? "behind" : "ahead of") +
+        " this " + deviceWord() + ".";
+    }
+    if (clock.source === "mount") {
+      text += (text ? " " : "") + "The server keeps the mount's clock: " + clock.reason + ".";
+    }
+    const site = s.site || {};
+    const gps = site.gps;
+    const defaultSite = Boolean(site.default) && !(gps && gps.site_from_gps);
+    setText("clock-line", text);
+    show("btn-device-time", wrong);
+    setText("site-line", defaultSite ? "The site is still the default (Greenwich)." : "");
+    show("btn-device-site", defaultSite);
+    show("clock-row", Boolean(text));
+    show("site-row", defaultSite);
+    show("field-line", Boolean(text) || defaultSite);
+    setText("time-source", sourceText(clock));
+    $("time-source").title = clock.reason || "";
+    setText("time-reason", clock.reason ? "Time source: " + sourceText(clock) + ": " + clock.reason + ". Host clock: " +
+      clock.host_status + "." : "");
+    setText("site-source", gps ? gpsText(gps) : (site.default ? "default (Greenwich): not set yet" : "set in the settings"));
+  }
+
+  function setText(id, text) {
+    const el = $(id);
+    if (el.textContent !== text) el.textContent = text;
+  }
+
+  function sourceText(clock) {
+    const names = { host: "this computer's clock", mount: "the mount's clock", client: "set by a client or this page" };
+    const host = clock.host_synchronised === false ? "not synchronised" : clock.host_synchronised ? "synchronised" : "status unknown";
+    const last = clock.host_last_synchronised ? ", last synchronised " + clock.host_last_synchronised.replace("T", " ").replace(/\.\d+Z$/, " UTC") : "";
+    return (names[clock.source] || clock.source || "\u2013") + " (host clock " + host + last + ")";
+  }
+
+  function gpsText(gps) {
+    if (gps.site_from_gps) return "site from GPS (" + gps.fix + " fix)";
+    if (!gps.connected) return "GPS: gpsd not reached" + (gps.last_error ? " (" + gps.last_error + ")" : "");
+    if (gps.fix === "3D") return "GPS: 3D fix held " + (gps.fix_held_s || 0).toFixed(0) + " s";
+    return "GPS: waiting for a 3D fix";
+  }
+
+  async function useDeviceTime() {
+    if (fl.busy) return;
+    fl.busy = true;
+    const button = $("btn-device-time");
+    button.disabled = true;
+    try {
+      const reply = await hook.post(hook.base + "/action/time",
+        { utc: new Date().toISOString(), round_trip_ms: Math.round(bestRoundTrip()) });
+      fl.samples = []; // the server's clock has moved: measure afresh
+      if (reply.mount_set && reply.mount_utc) {
+        hook.message("Time set from this device. The mount's clock reads " + reply.mount_utc.slice(11, 19) +
+          " UTC (" + difference(reply.mount_difference_s) + " from the server's, within the mount's whole seconds).", "info");
+      } else if (reply.mount_set) {
+        hook.message("Time set from this device and sent to the mount.", "info");
+      } else {
+        hook.message("The server's time is set from this device; the mount gets it when it is connected.", "info");
+      }
+    } catch (err) {
+      hook.message("Setting the time failed: " + err.message, "error");
+    } finally {
+      button.disabled = false;
+      fl.busy = false;
+      hook.poll(true);
+    }
+  }
+
+  function useDevicePosition() {
+    const note = $("field-note");
+    const explain = (text) => { note.textContent = text; note.classList.toggle("hidden", !text); };
+    if (!navigator.geolocation || !window.isSecureContext) {
+      explain(hook.geoInsecureText());
+      return;
+    }
+    explain("");
+    navigator.geolocation.getCurrentPosition(async (p) => {
+      const site = { latitude: Number(p.coords.latitude.toFixed(6)), longitude: Number(p.coords.longitude.toFixed(6)) };
+      if (p.coords.altitude !== null) site.elevation = Math.round(p.coords.altitude);
+      try {
+        await hook.post(hook.base + "/settings", { site });
+        hook.message("Site set from this device's position and sent to the mount.", "info");
+        hook.poll(true);
+      } catch (err) {
+        hook.message("Setting the site failed: " + err.message, "error");
+      }
+    }, (err) => explain(hook.geoErrorText(err)), { enableHighAccuracy: true, timeout: 20000 });
+  }
+
+  function start() {
+    $("btn-device-time").addEventListener("click", useDeviceTime);
+    $("btn-device-site").addEventListener("click", useDevicePosition);
+    hook.onStatus(render);
+  }
+
+  if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
+  else start();
+})();
