@@ -82,7 +82,7 @@ def _tracked_past_the_meridian(rig: Rig) -> tuple[float, float]:
     rig.scope.SlewToCoordinatesAsync(target_ra, DEC)
     rig.wait_at_rest("the slew to the target")
     rig.model.flash.set_meridian(configured)
-    rig.model.goto_flip_at_meridian = rig.flips_at_meridian
+    rig.model.firmware.goto_flip_at_meridian = rig.flips_at_meridian
     truth = rig.truth()
     assert truth["pier"] == "W" and float(truth["secondary_deg"]) < 90.0, truth  # type: ignore[arg-type]
     return target_ra, DEC
