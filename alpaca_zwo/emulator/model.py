@@ -594,6 +594,9 @@ class MountModel:
                 "secondary_deg": mech.pos[DEC],
                 "velocity_deg_s": list(mech.vel),
                 "pier": self.pier_letter(),
+                "side": mech.side().name if not mech.altaz() else "UNKNOWN",  # the truth, whatever :Gm# says
+                "through_pole": mech.outer,  # the Dec axis beyond ±90° (mechanically)
+                "hemisphere": "south" if mech.hemisphere().sign < 0.0 else "north",
                 "at_home": mech.at_home_position(),
                 "homed": mech.homed,
                 "slew": None if mech.slew is None else mech.slew.kind,

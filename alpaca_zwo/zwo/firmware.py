@@ -98,6 +98,10 @@ class FirmwareVariant:
     goto_flip_at_meridian: bool = False
     pier_letter: str = "pointing_state"  # pointing_state | mechanical | hour_angle
     ns_moves: str = "sky"  # sky | mechanical
+    #: What a power cycle keeps of the site: False, the site stored at the factory (or the emulator's
+    #: start) comes back, as an AM5N on 1.6.3 read Suzhou at power-up; True, the last :St/:Sg are
+    #: kept, as the NVS keys "latitude"/"longitude" of the 1.8.8 firmware suggest (docs/southern.md).
+    site_in_flash: bool = False
     name: str = "custom"  # the preset this came from ("custom" when built by hand)
     description: str = ""  # where this build's behaviour was seen
 
