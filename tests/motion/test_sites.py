@@ -265,18 +265,7 @@ def test_rate_offsets_move_north_and_east(rig: Rig) -> None:
     assert moved[1] == pytest.approx(40.0 * elapsed, rel=0.15)
 
 
-# -- Alt/Az slews, the sync remainder ------------------------------------------------------------------
-
-
-@pytest.mark.parametrize(("alt", "az"), [(40.0, 30.0), (55.0, 200.0)])
-def test_alt_az_slews_land_where_asked(rig: Rig, alt: float, az: float) -> None:
-    rig.ok("Tracking", Tracking=False)
-    rig.ok("SlewToAltAzAsync", Azimuth=az, Altitude=alt)
-    rig.at_rest("the Alt/Az slew")
-    got_alt, got_az = rig.model.horizontal()
-    error = sky.angular_separation(got_az / 15.0, got_alt, az / 15.0, alt) * 3600.0
-    assert error < 5.0, f"landed {error:.1f}″ from Alt {alt} Az {az}"
-    assert rig.value("Altitude") == pytest.approx(alt, abs=5 * ARCSEC)
+# -- the sync remainder (Alt/Az slews at every site: tests/motion/test_motion.py) -----------------------
 
 
 def test_sync_remainder_and_goto_back_land_exactly(rig: Rig) -> None:
