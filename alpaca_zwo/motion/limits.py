@@ -27,7 +27,8 @@ log = logging.getLogger(__name__)
 
 #: Reaction allowance for a limit stop on top of the braking distance, in supervisor ticks.
 LIMIT_TICKS = 2.0
-#: A motion under the limit "does not lower" the altitude within this much (the pole's rounding).
+#: Altitudes this close count as equal: the pole on the equator's horizon, or a mount under the limit
+#: moving along it, must not be refused for a rounding error.
 CLIMB_TOLERANCE_DEG = 1e-6
 
 
@@ -91,7 +92,7 @@ class Limits:
         v_ha_deg = -moves.get(0, 0.0)
         v_dec = moves.get(1, 0.0)
         altitude0, azimuth0 = sky.equatorial_to_horizontal(ha0, dec0, latitude)
-        below = altitude0 < horizon_altitude_at(settings.limits, azimuth0)
+        below = altitude0 < horizon_altitude_at(settings.limits, azimuth0) - CLIMB_TOLERANCE_DEG
         flip_deg = _flip_limit(settings, state)
         # The meridian limit is the mount's: it applies to the hour angle its axes point at.
         ha_shift = sky.wrap_hours_12(self.mount.mechanical_hour_angle(position[0]) - ha0)
@@ -101,7 +102,7 @@ class Limits:
             ha, dec = _normalise(ha_deg / 15.0, dec)
             altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, latitude)
             floor = horizon_altitude_at(settings.limits, azimuth)
-            if altitude < floor and not (below and altitude >= altitude0 - CLIMB_TOLERANCE_DEG):
+            if altitude < floor - CLIMB_TOLERANCE_DEG and not (below and altitude >= altitude0 - CLIMB_TOLERANCE_DEG):
                 if below:
                     return (f"horizon limit: the mount is at altitude {altitude0:.2f}°, under the limit, and this "
                             f"motion would lower it to {altitude:.2f}°; only motions that do not lower it are "
