@@ -3,9 +3,12 @@
 A German equatorial mount is two mechanical axes, not a pair of sky coordinates: the primary
 (RA) axis angle ``p`` and the secondary (Dec) axis angle ``s``, both in degrees here.
 
-- Pointing side WEST (ASCOM pierWest, looking east, the normal side): HA = p, Dec = s.
-- Pointing side EAST (through the pole, looking west): HA = p + 12 h, Dec = 180 - s.
-- Home: p = -90 (HA -6 h), s = 90 (the pole); ``:Gm#`` says ``N`` there.
+- North of the equator: the Dec axis inside ±90° is pointing side WEST (ASCOM pierWest, looking
+  east): HA = p, Dec = s; through the pole it is EAST (looking west): HA = p + 12 h, Dec = 180 - s.
+- South of it the same axes point at the mirrored sky (HA and Dec change sign; ``state.Hemisphere``,
+  docs/southern.md): the RA axis turns the other way to track, and through the pole is WEST.
+- Home: p = -90, s = 90 (the pole of the site's hemisphere: HA -6 h and Dec +90 in the north, HA +6 h
+  and Dec -90 in the south); ``:Gm#`` says ``N`` there.
 
 Everything a client sees is derived from (p, s), the mount's own clock and its stored site,
 exactly as on the real mount: RA drifts with sidereal time when tracking is off, LST and Alt/Az
@@ -35,9 +38,8 @@ call back into the model: ``flash`` and ``clock_site`` get ``advance`` (the mech
 returning the emulated seconds) as a callable, the others get the parts they read.
 
 In alt-az mode (``:AA#``, in effect after a power cycle) the same axes are azimuth and altitude;
-``altaz`` says what moves how. Not modelled (see the README): southern-hemisphere homes (home
-is always the north celestial pole), refraction, encoder/periodic errors, ST-4 guiding and the
-meaning of the ``:GU#`` digits.
+``altaz`` says what moves how. Not modelled (see the README): refraction, encoder/periodic errors,
+ST-4 guiding and the meaning of the ``:GU#`` digits.
 """
 
 from __future__ import annotations
