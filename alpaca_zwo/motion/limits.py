@@ -27,9 +27,12 @@ log = logging.getLogger(__name__)
 
 #: Reaction allowance for a limit stop on top of the braking distance, in supervisor ticks.
 LIMIT_TICKS = 2.0
-#: Altitudes this close count as equal: the pole on the equator's horizon, or a mount under the limit
-#: moving along it, must not be refused for a rounding error.
+#: Altitudes this close count as equal (rounding): a mount under the limit may move this little lower.
 CLIMB_TOLERANCE_DEG = 1e-6
+#: A mount at the limit (within this of it) may move along it, this far below at most: on the equator
+#: home points at the pole on the horizon, where a Dec move follows an hour circle that dips below it by
+#: the RA axis' distance from HA ±6 h (ConformU's MoveAxis test from home). 36″: nothing is in the way.
+LIMIT_MARGIN_DEG = 0.01
 
 
 def _travel(velocity: float, react: float) -> float:
@@ -92,7 +95,9 @@ class Limits:
         v_ha_deg = -moves.get(0, 0.0)
         v_dec = moves.get(1, 0.0)
         altitude0, azimuth0 = sky.equatorial_to_horizontal(ha0, dec0, latitude)
-        below = altitude0 < horizon_altitude_at(settings.limits, azimuth0) - CLIMB_TOLERANCE_DEG
+        floor0 = horizon_altitude_at(settings.limits, azimuth0)
+        below = altitude0 < floor0 - LIMIT_MARGIN_DEG  # under it: may climb out
+        at_limit = abs(altitude0 - floor0) <= LIMIT_MARGIN_DEG  # on it: may move along it
         flip_deg = _flip_limit(settings, state)
         # The meridian limit is the mount's: it applies to the hour angle its axes point at.
         ha_shift = sky.wrap_hours_12(self.mount.mechanical_hour_angle(position[0]) - ha0)
@@ -102,10 +107,13 @@ class Limits:
             ha, dec = _normalise(ha_deg / 15.0, dec)
             altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, latitude)
             floor = horizon_altitude_at(settings.limits, azimuth)
-            if altitude < floor - CLIMB_TOLERANCE_DEG and not (below and altitude >= altitude0 - CLIMB_TOLERANCE_DEG):
-                if below:
-                    return (f"horizon limit: the mount is at altitude {altitude0:.2f}°, under the limit, and this "
-                            f"motion would lower it to {altitude:.2f}°; only motions that do not lower it are "
+            allowed = altitude >= floor - CLIMB_TOLERANCE_DEG or (
+                below and altitude >= altitude0 - CLIMB_TOLERANCE_DEG) or (
+                at_limit and altitude >= floor - LIMIT_MARGIN_DEG)
+            if not allowed:
+                if below or at_limit:
+                    return (f"horizon limit: the mount is at altitude {altitude0:.2f}°, at or under the limit, and "
+                            f"this motion would lower it to {altitude:.2f}°; only motions that do not lower it are "
                             f"allowed (from here: {self._climbing_directions(ha0, dec0, latitude)})")
                 return (f"horizon limit: it would come to rest at altitude {altitude:.2f}°, under the {floor:.2f}° "
                         f"allowed at azimuth {azimuth:.1f}°")

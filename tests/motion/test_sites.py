@@ -25,6 +25,7 @@ from alpaca_zwo.sky import PierSide
 from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient, wait_until
 from tests.support.sites import ALL_SITE_IDS, ALL_SITES, NORTH, SITE_IDS, SITES, SYDNEY, Site
+from tests.web.test_setup_api import Client as PageClient
 
 SPEED = 8.0
 ARCSEC = 1.0 / 3600.0
@@ -313,6 +314,9 @@ def test_a_mount_below_the_limit_may_climb_but_not_sink(server_factory: ServerFa
     rig.ok("Tracking", Tracking=True)
     assert rig.value("Tracking") is True
     rig.ok("Tracking", Tracking=False)
+    page = PageClient(f"http://127.0.0.1:{rig.server.port}")  # a jog from the setup page: the same rules
+    jog = page.post("/setup/api/telescope/0/action/move", {"axis": 1, "rate": -low.pole * 1.0})
+    assert jog.status_code != 200 and "only motions that do not lower it" in jog.text, jog.text
     number, message = rig.error("MoveAxis", Axis=1, Rate=-low.pole * 1.0)  # away from the pole: down
     assert number == 0x40B, message
     assert "only motions that do not lower it" in message and "east" in message and "west" in message, message
@@ -388,3 +392,31 @@ def test_server_is_right_under_every_firmware_reading(server_factory: ServerFact
     wait_until(lambda: rig.value("IsPulseGuiding") is False, 30.0, "the pulse")
     wait_until(lambda: not any(rig.truth()["pulses"]), 10.0, "the mount's pulse")
     assert _sky_moved(rig, before)[1] > 5.0, "north on pierEast"
+
+
+def test_on_the_equator_home_sits_on_the_horizon_and_moves_along_it(server_factory: ServerFactory) -> None:
+    """On the equator home points at the pole on the horizon, the default 0° limit. Every axis may move
+    from there (ConformU's MoveAxis test does, after turning the RA axis a little): a Dec move follows
+    an hour circle that dips below the horizon by the RA axis' distance from HA ±6 h, and the server
+    lets it run along the limit, 36″ below it at most, and stops it there."""
+    from tests.support.sites import EQUATOR
+
+    rig = _rig(server_factory, EQUATOR)
+    assert rig.model.horizontal()[0] == pytest.approx(0.0, abs=1e-9)
+    assert rig.value("Altitude") >= 0.0
+    rig.ok("MoveAxis", Axis=0, Rate=1.0)  # the RA axis a few degrees off HA -6 h: the pointing stays on the pole
+    rig.wait_mount_seconds(3.0)
+    rig.ok("MoveAxis", Axis=0, Rate=0.0)
+    rig.at_rest("the RA move")
+    lowest = 0.0
+    for rate in (2.0, -2.0):
+        rig.ok("MoveAxis", Axis=1, Rate=rate)  # accepted both ways
+        t0 = rig.mount_seconds()
+        while rig.value("Slewing") and rig.mount_seconds() - t0 < 6.0:
+            lowest = min(lowest, rig.model.horizontal()[0])
+        rig.ok("MoveAxis", Axis=1, Rate=0.0)
+        rig.at_rest("the Dec move")
+        lowest = min(lowest, rig.model.horizontal()[0])
+        rig.ok("FindHome")
+        rig.at_rest("home")
+    assert lowest > -0.02, f"the mount went {lowest:.4f}° below the horizon"
