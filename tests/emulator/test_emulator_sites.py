@@ -1,11 +1,12 @@
 """The emulated mount at every latitude: one mechanical model, the site's hemisphere choosing what its
 axes point at (docs/southern.md). Each test runs north of the equator, at Sydney, on the equator and
 at ±70°, with declinations mirrored toward the site's elevated pole, so one test states one rule for
-every site. Emulated time moves only through the ManualClock."""
+every site. Emulated time moves only through the ManualClock. The mount (tests/emulator/conftest.py)
+leaves the factory set to Suzhou, north: each site is set as a client sets it, so the southern ones
+cross the equator while the mount is powered."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import pytest
@@ -16,7 +17,7 @@ from alpaca_zwo.emulator.model import FACTORY_LATITUDE, FACTORY_LONGITUDE
 from alpaca_zwo.sky import SIDEREAL_DEG_S, PierSide
 from alpaca_zwo.zwo import protocol, wire_values
 from alpaca_zwo.zwo.wire_values import MountMode
-from tests.emulator.emuclient import START_UTC, MountClient, flags, slew, target_at, wait_slew
+from tests.emulator.emuclient import MountClient, flags, slew, target_at, wait_slew
 
 ARCSEC = 1.0 / 3600.0
 
@@ -45,32 +46,6 @@ SITES = [Site("north", 51.4769, -0.0005), Site("sydney", -33.8688, 151.2093), Si
 def site(request: pytest.FixtureRequest) -> Site:
     site: Site = request.param
     return site
-
-
-@pytest.fixture
-def clock() -> ManualClock:
-    return ManualClock(START_UTC)
-
-
-@pytest.fixture
-def firmware() -> FirmwareVariant:
-    return FirmwareVariant()
-
-
-@pytest.fixture
-def model(clock: ManualClock, firmware: FirmwareVariant) -> MountModel:
-    return MountModel(clock, firmware)  # the factory site (north), as every mount leaves the factory
-
-
-@pytest.fixture
-def mount(model: MountModel) -> Iterator[MountClient]:
-    server = EmulatorServer(model, host="127.0.0.1", port=0, baud=0).start()
-    client = MountClient(server.port)
-    try:
-        yield client
-    finally:
-        client.close()
-        server.stop()
 
 
 def set_site(client: MountClient, site: Site) -> None:
