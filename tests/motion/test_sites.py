@@ -392,6 +392,11 @@ def test_server_is_right_under_every_firmware_reading(server_factory: ServerFact
     wait_until(lambda: rig.value("IsPulseGuiding") is False, 30.0, "the pulse")
     wait_until(lambda: not any(rig.truth()["pulses"]), 10.0, "the mount's pulse")
     assert _sky_moved(rig, before)[1] > 5.0, "north on pierEast"
+    # What the server learned is what the emulated firmware does (mount/pier.py).
+    learned = rig.server.telescopes[0].mount.pier_conventions
+    assert learned["mechanical_ns"] is (ns == "mechanical")
+    assert learned["follows_hour_angle"] is (letters == "hour_angle")
+    assert learned["mechanical_names"] is ((letters == "mechanical") if where.pole < 0 else None)
 
 
 def test_on_the_equator_home_sits_on_the_horizon_and_moves_along_it(server_factory: ServerFactory) -> None:
