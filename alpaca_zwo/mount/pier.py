@@ -79,8 +79,7 @@ class PierSides:
         #: No GOTO since the server met the mount, or a manual RA move since the last one: the
         #: counterweight may be anywhere.
         self._moved_ra = True
-        self._last: tuple[str, float] | None = None  # the last (letter, hour angle) seen at rest
-        self.side = PierSide.UNKNOWN
+        self._last: tuple[str, float] | None = None  # the last (letter, hour angle) seen
 
     def forget(self) -> None:
         """A mount restart or another mount: what it was doing is gone (the conventions stay)."""
@@ -101,15 +100,13 @@ class PierSides:
 
     def observe(self, letter: str | None, ha_hours: float, south: bool, busy: bool, now: float) -> PierSide:
         """One reading at ``now``: the letter, the pointing's hour angle in the mount's own frame, the
-        site's hemisphere, and whether a slew or move runs. Returns (and keeps as ``side``) the
-        pointing state."""
+        site's hemisphere, and whether a slew or move runs. Returns the pointing state."""
         if busy:
             self._seen_busy = True
         if letter == "N" or letter is None:
             self._memory = _Memory()
             self._last = None
-            self.side = PierSide.UNKNOWN
-            return self.side
+            return PierSide.UNKNOWN
         self._note_pole_passage(letter, ha_hours)
         if not busy:
             self._learn(letter, ha_hours, south, now)
@@ -117,10 +114,8 @@ class PierSides:
         zone = in_zone(ha_hours)
         memory = self._memory
         if self.follows_hour_angle and zone and memory.side is not PierSide.UNKNOWN:
-            self.side = memory.side
-        else:
-            self.side = named
-        return self.side
+            return memory.side
+        return named
 
     def _note_pole_passage(self, letter: str, ha_hours: float) -> None:
         """A Dec move through the pole changes the side: the letter changes and the hour angle jumps."""
