@@ -97,6 +97,7 @@ class Mount:
         self._move_directions: dict[int, Direction] = {}  # axis -> the letter of the move running
         self._move_rates: dict[int, float] = {}  # axis -> its :Rv multiple
         self._turn_round = False  # a reading showed the Dec move going the wrong way (mount/pier.py)
+        self._side_known = False  # the last published side is known, not merely read (PierSides.trusted)
         #: Sky rates (deg/s) of the slow moves that carry a tracking rate offset (see drift()).
         self._drift = [0.0, 0.0]
         #: Added to the host clock when the mount's time is pushed (a client may set UTCDate).
@@ -567,7 +568,10 @@ class Mount:
             return
         with self._pier_lock:
             if sent not in (Direction.EAST, Direction.WEST):
-                self._dec_sense.started(sent, state.side, state.raw_dec, until)
+                if self._side_known:  # a side merely read could teach the wrong N/S
+                    self._dec_sense.started(sent, state.side, state.raw_dec, until)
+                else:
+                    self._dec_sense.cancel()
             elif until is None:  # a pulse moves arcseconds; a move may take the counterweight anywhere
                 self._pier.ra_moved()
 
@@ -770,8 +774,10 @@ class Mount:
         if status.mode is MountMode.ALTAZ:
             return PierSide.UNKNOWN  # an alt-az mount has no pier side
         ha = sky.hour_angle(self.lst(), ra - self._alignment[0])
+        south = self.site()[0] < 0.0
         with self._pier_lock:
-            side = self._pier.observe(letter, ha, self.site()[0] < 0.0, moving, now)
+            side = self._pier.observe(letter, ha, south, moving, now)
+            self._side_known = self._pier.trusted(ha, south)
             reversed_now = self._dec_sense.observe(dec, side, now)
         if reversed_now and 1 in self._move_directions:
             self._turn_round = True  # done by the poller once the publish lock is released

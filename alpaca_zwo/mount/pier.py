@@ -117,6 +117,15 @@ class PierSides:
             return memory.side
         return named
 
+    def trusted(self, ha_hours: float, south: bool) -> bool:
+        """Whether the side ``observe`` gives here is known, not merely read: the letters' names are
+        learned (south of the equator), and near the meridian whether they follow the hour angle.
+        Only a known side may teach ``DecSense``: on the side mistaken for pierWest both N/S readings
+        agree, and it would learn the wrong one."""
+        if south and self.mechanical_names is None:
+            return False
+        return not in_zone(ha_hours) or self.follows_hour_angle is not None
+
     def _note_pole_passage(self, letter: str, ha_hours: float) -> None:
         """A Dec move through the pole changes the side: the letter changes and the hour angle jumps."""
         last = self._last

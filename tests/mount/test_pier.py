@@ -96,3 +96,14 @@ def test_dec_sense_learns_sky_north_and_forgets_a_finished_pulse() -> None:
     sense.started(Direction.SOUTH, WEST, -20.0, None)
     assert not sense.observe(-20.0 - 5 / 3600, WEST, 9.0)  # south lowered Dec: sky directions
     assert sense.mechanical is False
+
+
+def test_a_side_merely_read_is_not_trusted_to_teach_north_and_south() -> None:
+    pier = PierSides()
+    pier.ra_moved()
+    pier.observe("W", -3.0, True, False, 1.0)
+    assert not pier.trusted(-3.0, True)  # south of the equator, the letters' names not yet learned
+    assert pier.trusted(-3.0, False)
+    _landed(pier, "W", -3.0, True, WEST)
+    assert pier.trusted(-3.0, True)
+    assert not pier.trusted(0.05, True)  # near the meridian: whether the letters follow the hour angle
