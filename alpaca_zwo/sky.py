@@ -182,15 +182,24 @@ def ra_from_hour_angle(lst_hours: float, ha_hours: float) -> float:
 # where the textbook asin/acos forms lose digits.
 
 
-def _rotate(lon_rad: float, lat_rad: float, phi_rad: float) -> tuple[float, float]:
+def _cos_sin(degrees: float) -> tuple[float, float]:
+    """(cos, sin) of an angle in degrees, exact at multiples of 90°: at a pole (Dec ±90) or on the
+    equator's horizon, the rotation must give exactly 0, not the 6e-17 of cos(radians(90)), or a
+    mount at home on the equator reads an altitude of -0.0000000000001° (ConformU: "below 0")."""
+    quarter, rest = divmod(degrees, 90.0)
+    if rest == 0.0:
+        return ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))[int(quarter) % 4]
+    radians = math.radians(degrees)
+    return math.cos(radians), math.sin(radians)
+
+
+def _rotate(lon_deg: float, lat_deg: float, phi_deg: float) -> tuple[float, float]:
     """Swap between (HA, Dec) and (Az, Alt) frames; the rotation is its own inverse in this form."""
-    cos_lat = math.cos(lat_rad)
-    sin_lat = math.sin(lat_rad)
-    cos_lon = math.cos(lon_rad)
-    sin_phi = math.sin(phi_rad)
-    cos_phi = math.cos(phi_rad)
+    cos_lon, sin_lon = _cos_sin(lon_deg)
+    cos_lat, sin_lat = _cos_sin(lat_deg)
+    cos_phi, sin_phi = _cos_sin(phi_deg)
     x = -cos_lon * cos_lat * sin_phi + sin_lat * cos_phi
-    y = -math.sin(lon_rad) * cos_lat
+    y = -sin_lon * cos_lat
     z = cos_lon * cos_lat * cos_phi + sin_lat * sin_phi
     return math.atan2(y, x), math.atan2(z, math.hypot(x, y))
 
@@ -200,7 +209,7 @@ def equatorial_to_horizontal(ha_hours: float, dec_deg: float, latitude_deg: floa
 
     At the zenith the azimuth is undefined and whatever atan2 yields is returned.
     """
-    az, alt = _rotate(math.radians(ha_hours * 15.0), math.radians(dec_deg), math.radians(latitude_deg))
+    az, alt = _rotate(ha_hours * 15.0, dec_deg, latitude_deg)
     return math.degrees(alt), wrap_degrees_360(math.degrees(az))
 
 
@@ -211,7 +220,7 @@ def horizontal_to_equatorial(
 
     At the celestial poles the hour angle is undefined and whatever atan2 yields is returned.
     """
-    ha, dec = _rotate(math.radians(azimuth_deg), math.radians(altitude_deg), math.radians(latitude_deg))
+    ha, dec = _rotate(azimuth_deg, altitude_deg, latitude_deg)
     return wrap_hours_12(math.degrees(ha) / 15.0), math.degrees(dec)
 
 

@@ -42,6 +42,7 @@ def test_the_lanes_collect_the_whole_suite_each_test_once() -> None:
 
 def test_the_background_lanes_hold_only_conformance_and_the_system_tests() -> None:
     lanes = _lanes()
-    assert lanes["conformance"] == ["tests/conformance"]
+    assert lanes["conformance"] == ["tests/conformance", "--ignore=tests/conformance/test_conformu_sites.py"]
+    assert lanes["sites"] == ["tests/conformance/test_conformu_sites.py"]
     assert lanes["platform"] == ["tests/platform"]
     assert "tests/conformance" not in lanes["main"] and "tests/platform" not in lanes["main"]

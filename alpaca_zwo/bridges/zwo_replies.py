@@ -43,7 +43,7 @@ from .._exceptions import (
 )
 from ..config.settings import ZWO_PORT_DANGEROUS, horizon_altitude_at
 from ..mount.state import MountSettings
-from ..sky import SIDEREAL_DEG_S
+from ..sky import SIDEREAL_DEG_S, PierSide
 from ..zwo import protocol, wire_values
 from ..zwo.protocol import ReplyKind, char_reply
 from ..zwo.wire_values import (
@@ -153,7 +153,7 @@ class ZwoResponder:
             "SMGE": c.set_site,
             "GMGE": lambda s, a, w: f"{format_latitude(t.site_latitude())}&{format_longitude(t.site_longitude())}#",
             # Position and target
-            "Gm": lambda s, a, w: f"{self.mount.state.pier}#" if self.mount.state.pier else None,
+            "Gm": lambda s, a, w: self._pier_letter(),
             "Sr": self._set_target_ra, "Sd": self._set_target_dec,
             "Gr": lambda s, a, w: format_hms(self._target(s)[0]) + "#",
             "Gd": lambda s, a, w: format_dms(self._target(s)[1]) + "#",
@@ -275,6 +275,16 @@ class ZwoResponder:
         tracking = state.tracking.on if state.tracking is not None else status.tracking
         return format_status(dataclasses.replace(
             status, tracking=tracking, slewing=slewing, at_home=status.at_home and not slewing)) + "#"
+
+    def _pier_letter(self) -> str | None:
+        """``:Gm#`` as INDI reads it (W pierWest, E pierEast, N at home): the pointing state the server
+        reads from the mount's letter, whatever that mount's firmware names (mount/pier.py)."""
+        state = self.mount.state
+        if state.pier is None:
+            return None
+        if state.side is PierSide.UNKNOWN or state.altaz:
+            return f"{state.pier}#"
+        return "W#" if state.side is PierSide.WEST else "E#"
 
     def _tracking_state(self, _session: Session, _argument: str, _well_formed: bool) -> str | None:
         tracking = self.mount.state.tracking

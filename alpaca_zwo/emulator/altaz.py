@@ -148,7 +148,7 @@ class AltAzRules:
         latitude, p = self._site.latitude_deg, self._mechanics.pos[RA]
         _, az = sky.equatorial_to_horizontal(raw_ha, raw_dec, latitude)
         az_ref = p + ((az - p + 180.0) % 360.0 - 180.0)
-        return AltAzSlew("goto", self._mechanics.t, raw_ha * 15.0, SIDEREAL_DEG_S, raw_dec, sky.PierSide.WEST,
+        return AltAzSlew("goto", self._mechanics.t, raw_ha * 15.0, SIDEREAL_DEG_S, raw_dec, False,
                          latitude=latitude, az_ref=az_ref)
 
     def tracking_refusal(self) -> int | None:

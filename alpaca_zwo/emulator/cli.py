@@ -26,6 +26,8 @@ from ..zwo.firmware import (
     GT_MAPPINGS,
     HOME_FLAGS,
     MODELS,
+    NS_MOVES,
+    PIER_LETTERS,
     PRESETS,
     FirmwareVariant,
     preset,
@@ -106,9 +108,15 @@ def build_parser() -> argparse.ArgumentParser:
     fw.add_argument("--gps-reply", choices=GPS_REPLIES, help=":Gps# answers 0/1/2 or an empty #")
     fw.add_argument("--hp-reply", choices=("none", "1#"), help=":hP# answers nothing or 1#/0#")
     fw.add_argument("--gh-reply", choices=GH_REPLIES, help=":Gh# answers #, 0#, or 1#/0# by whether a home completed")
+    fw.add_argument("--pier-letter", choices=PIER_LETTERS,
+                    help=":Gm# names the pointing state, the axes' state as in the north, or the hour angle's side")
+    fw.add_argument("--ns-moves", choices=NS_MOVES,
+                    help=":Mn#/:Mgn move toward the sky's north, or one way of the Dec axis")
     for flag, text in (("--compound-goto-sync", ":SMeq/:SMMC work as documented (real firmware answers e2#)"),
                        ("--custom-tracking", ":STRnn# custom rate works (real: no reply)"),
-                       ("--gmza-south-azimuth", ":GMZA# azimuth measured from south")):
+                       ("--gmza-south-azimuth", ":GMZA# azimuth measured from south"),
+                       ("--goto-flip-at-meridian", "a GOTO flips at the meridian, not past the track-past limit"),
+                       ("--site-in-flash", "a site set by :St/:Sg is kept across a power cycle")):
         fw.add_argument(flag, action="store_const", const=True, help=text)
 
     parser.add_argument("--log-level", default="WARNING", help="DEBUG, INFO, WARNING (default) or ERROR")
@@ -119,7 +127,7 @@ def firmware_from_args(args: argparse.Namespace) -> FirmwareVariant:
     """The chosen preset with the switches given on the command line changed."""
     switches = {name: getattr(args, name) for name in (
         "model", "home_flag", "gt_mapping", "gps_reply", "gh_reply", "compound_goto_sync", "custom_tracking",
-        "gmza_south_azimuth")}
+        "gmza_south_azimuth", "goto_flip_at_meridian", "pier_letter", "ns_moves", "site_in_flash")}
     switches["version"] = args.firmware
     overrides = {name: value for name, value in switches.items() if value is not None}
     if args.hp_reply is not None:  # "none" is a value of its own: the :hP# that answers nothing

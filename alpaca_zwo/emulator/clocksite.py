@@ -19,7 +19,8 @@ class ClockAndSite:
     """Date, time, zone, daylight saving, sidereal time and site, as the mount keeps them.
 
     All of it is volatile (lost at power-off, set again by ``power_up``); the site comes back from
-    flash (``flash.persist``). The wall clock runs on the model's emulated seconds: it is
+    flash (``flash.persist``): the factory's, or the last one set where the firmware variant keeps it
+    (``site_in_flash``). The wall clock runs on the model's emulated seconds: it is
     ``local_ref`` at ``local_ref_t`` and advances with them, so the helpers that read it take ``t``.
 
     Lock: ``MountModel._lock``, lent as ``lock`` because the responder calls the public methods
@@ -167,8 +168,10 @@ class ClockAndSite:
             return False
         with self._lock:
             self._advance()
-            self.latitude_deg = degrees
+            self.latitude_deg = degrees  # across the equator the axes stay: what they point at changes
             self.lat_set = True
+            if self._flash.keeps_site:
+                self._flash.persist.latitude = degrees
             return True
 
     def set_longitude(self, east_degrees: float) -> bool:
@@ -178,6 +181,8 @@ class ClockAndSite:
             self._advance()
             self.longitude_deg = east_degrees
             self.lon_set = True
+            if self._flash.keeps_site:
+                self._flash.persist.longitude = east_degrees
             return True
 
     def latitude(self) -> float:

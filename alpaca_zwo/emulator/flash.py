@@ -37,6 +37,11 @@ class FlashSettings:
         self._advance = advance
         self.power_up()
 
+    @property
+    def keeps_site(self) -> bool:
+        """Whether a site set by a client is written to flash (the ``site_in_flash`` variant)."""
+        return self._firmware.site_in_flash
+
     def power_up(self) -> None:
         """The stored mode and Bluetooth suffix take effect (callers hold the lock)."""
         self.mode_in_effect = self.persist.mode

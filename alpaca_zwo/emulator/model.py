@@ -3,9 +3,12 @@
 A German equatorial mount is two mechanical axes, not a pair of sky coordinates: the primary
 (RA) axis angle ``p`` and the secondary (Dec) axis angle ``s``, both in degrees here.
 
-- Pointing side WEST (ASCOM pierWest, looking east, the normal side): HA = p, Dec = s.
-- Pointing side EAST (through the pole, looking west): HA = p + 12 h, Dec = 180 - s.
-- Home: p = -90 (HA -6 h), s = 90 (the pole); ``:Gm#`` says ``N`` there.
+- North of the equator: the Dec axis inside ±90° is pointing side WEST (ASCOM pierWest, looking
+  east): HA = p, Dec = s; through the pole it is EAST (looking west): HA = p + 12 h, Dec = 180 - s.
+- South of it the same axes point at the mirrored sky (HA and Dec change sign; ``state.Hemisphere``,
+  docs/southern.md): the RA axis turns the other way to track, and through the pole is WEST.
+- Home: p = -90, s = 90 (the pole of the site's hemisphere: HA -6 h and Dec +90 in the north, HA +6 h
+  and Dec -90 in the south); ``:Gm#`` says ``N`` there.
 
 Everything a client sees is derived from (p, s), the mount's own clock and its stored site,
 exactly as on the real mount: RA drifts with sidereal time when tracking is off, LST and Alt/Az
@@ -35,9 +38,8 @@ call back into the model: ``flash`` and ``clock_site`` get ``advance`` (the mech
 returning the emulated seconds) as a callable, the others get the parts they read.
 
 In alt-az mode (``:AA#``, in effect after a power cycle) the same axes are azimuth and altitude;
-``altaz`` says what moves how. Not modelled (see the README): southern-hemisphere homes (home
-is always the north celestial pole), refraction, encoder/periodic errors, ST-4 guiding and the
-meaning of the ``:GU#`` digits.
+``altaz`` says what moves how. Not modelled (see the README): refraction, encoder/periodic errors,
+ST-4 guiding and the meaning of the ``:GU#`` digits.
 """
 
 from __future__ import annotations
@@ -63,6 +65,7 @@ from .state import (
     FACTORY_LONGITUDE,
     HOME_P,
     HOME_S,
+    HORIZON_TOLERANCE_DEG,
     PARK_P,
     PARK_S,
     PULSE_MAX_MS,
@@ -94,11 +97,6 @@ class MountModel:
     the mount's exact reply text. Owns ``_lock`` (RLock: every command holds it; lent to ``flash``
     and ``clock_site``), ``firmware``, ``faults``, ``power_ups`` and the four parts.
     """
-
-    #: Which reading of the evidence the GOTO side follows (docs/meridian.md): False (the default,
-    #: the assumption) = a GOTO flips only past the track-past limit; True = at the meridian itself
-    #: (ASIAIR users' description), a negative limit still moving the line before the meridian.
-    goto_flip_at_meridian = False
 
     def __init__(
         self,
@@ -188,12 +186,20 @@ class MountModel:
             return mech.pos[RA], mech.pos[DEC]
 
     def pier_letter(self) -> str:
-        """``:Gm#``: N at home, else W (pierWest, looking east) or E (through the pole)."""
+        """``:Gm#``: N at home, else W or E as the firmware variant names the side (``pier_letter``):
+        the pointing state of the axes (W looking east, counterweight down: pierWest), the axes'
+        mechanical state named as in the north (W with the Dec axis inside ±90°), or the side of the
+        pointing's hour angle (W east of the meridian) whatever the axes."""
         mech = self.mechanics
         with self._lock:
             mech.advance()
             if mech.at_home_position():
                 return "N"
+            rule = self.firmware.pier_letter
+            if rule == "mechanical" and not mech.altaz():
+                return "E" if mech.outer else "W"
+            if rule == "hour_angle" and not mech.altaz():
+                return "W" if sky.pointing_state(mech.raw_ha_dec()[0]) is sky.PierSide.WEST else "E"
             return "W" if mech.side() is sky.PierSide.WEST else "E"
 
     def set_target_ra(self, hours: float) -> bool:
@@ -228,7 +234,7 @@ class MountModel:
             lst = site.lst(mech.t)
             ha = sky.hour_angle(lst, mech.target_ra)
             alt, _ = sky.equatorial_to_horizontal(ha, mech.target_dec, site.latitude_deg)
-            if alt < 0.0:
+            if alt < -HORIZON_TOLERANCE_DEG:
                 return 5
             persist = self.flash.persist
             if persist.limits_enabled and not persist.lower_limit <= alt <= persist.upper_limit:
@@ -239,19 +245,18 @@ class MountModel:
             if mech.altaz():
                 mech.start_slew(self.altaz_rules.goto(raw_ha, raw_dec))
                 return 0
+            hemisphere = mech.hemisphere()
             side = sky.goto_pier_side(raw_ha, mech.side(), self._goto_limit_deg())
-            if side is sky.PierSide.EAST:
-                p, s = (raw_ha - 12.0) * 15.0, 180.0 - raw_dec
-            else:
-                p, s = raw_ha * 15.0, raw_dec
-            mech.start_slew(Slew("goto", mech.t, p, SIDEREAL_DEG_S, s, side))
+            p, s = hemisphere.axes(raw_ha, raw_dec, side)
+            mech.start_slew(Slew("goto", mech.t, p, hemisphere.primary_rate(SIDEREAL_DEG_S), s,
+                                 hemisphere.outer(side)))
             return 0
 
     def _goto_limit_deg(self) -> float:
         """The limit handed to ``sky.goto_pier_side``: how far past the meridian the west side may go."""
         settings = self.flash.persist.meridian
         limit = float(settings.limit_degrees)
-        if self.goto_flip_at_meridian:
+        if self.firmware.goto_flip_at_meridian:
             return min(limit, 0.0)
         return limit if limit < 0.0 or settings.track_after else 0.0
 
@@ -274,8 +279,7 @@ class MountModel:
                 return False
             p, s = self.flash.persist.custom_park or (PARK_P, PARK_S)
             self.flash.persist.parked = True
-            side = sky.PierSide.EAST if s > 90.0 else sky.PierSide.WEST
-            mech.start_slew(Slew("park", mech.t, p, 0.0, s, side))
+            mech.start_slew(Slew("park", mech.t, p, 0.0, s, abs(s) > 90.0))
             return True
 
     def unpark(self) -> bool:
@@ -361,7 +365,8 @@ class MountModel:
                 mech.axis_speed[axis] = multiple
 
     def move(self, direction: str) -> bool:
-        """``:Me/:Mw/:Mn/:Ms#``: move relative to the sky at the latched speed until stopped."""
+        """``:Me/:Mw/:Mn/:Ms#``: move at the latched speed until stopped; E/W relative to the sky, N/S
+        as the firmware variant has it (``ns_moves``, ``_dec_velocity``)."""
         mech = self.mechanics
         with self._lock:
             mech.advance()
@@ -372,13 +377,22 @@ class MountModel:
             if multiple is None:
                 multiple = mech.speed
             rate = min(multiple, float(self.flash.persist.max_speed)) * SIDEREAL_DEG_S
-            if direction == "e":  # RA up = HA down = primary angle down
-                mech.moves[RA] = -rate
-            elif direction == "w":
-                mech.moves[RA] = rate
+            if direction in "ew":  # east: RA up, the hour angle down
+                mech.moves[RA] = rate * mech.ra_sign() * (-1.0 if direction == "e" else 1.0)
             else:
-                mech.moves[DEC] = rate * mech.dec_sign() * (1.0 if direction == "n" else -1.0)
+                mech.moves[DEC] = self._dec_velocity(direction, rate)
             return True
+
+    def _dec_velocity(self, direction: str, rate: float) -> float:
+        """The secondary axis' speed for ``:Mn/:Ms#`` or ``:Mgn/:Mgs``: toward the sky's north or
+        south on either side (``ns_moves = "sky"``), or one way of the Dec axis whatever the side
+        (``"mechanical"``: north raises Dec on pierEast and lowers it on pierWest, as eq-satrack saw
+        on an AM3). Alt-az moves are sky motions. Callers hold the lock."""
+        mech = self.mechanics
+        sign = 1.0 if direction == "n" else -1.0
+        if self.firmware.ns_moves == "mechanical" and not mech.altaz():
+            return -rate * sign  # the way that raises Dec on pierEast in either hemisphere
+        return rate * mech.dec_sign() * sign
 
     def stop_axis(self, direction: str) -> None:
         """``:Qe/:Qw#`` stop the RA axis, ``:Qn/:Qs#`` the Dec axis (moves and pulses)."""
@@ -406,12 +420,10 @@ class MountModel:
                 # Accepted and timed, but no measurable movement in alt-az (field notes §2.5, PT).
                 mech.pulses[axis] = Pulse(0.0, mech.t + milliseconds / 1000.0)
                 return True
-            if direction == "e":
-                velocity = -rate
-            elif direction == "w":
-                velocity = rate
+            if direction in "ew":
+                velocity = rate * mech.ra_sign() * (-1.0 if direction == "e" else 1.0)
             else:
-                velocity = rate * mech.dec_sign() * (1.0 if direction == "n" else -1.0)
+                velocity = self._dec_velocity(direction, rate)
             mech.pulses[axis] = Pulse(velocity, mech.t + milliseconds / 1000.0)
             return True
 
@@ -469,7 +481,7 @@ class MountModel:
                 if refusal != 7:  # 7 is read from the clock and site themselves (tracking_state)
                     mech.track_error = refusal
                 return False
-            if mech.raw_altitude() < 0.0:
+            if mech.below_horizon():
                 mech.track_error = 5
                 return False
             mech.tracking = True
@@ -584,6 +596,9 @@ class MountModel:
                 "secondary_deg": mech.pos[DEC],
                 "velocity_deg_s": list(mech.vel),
                 "pier": self.pier_letter(),
+                "side": mech.side().name if not mech.altaz() else "UNKNOWN",  # the truth, whatever :Gm# says
+                "through_pole": mech.outer,  # the Dec axis beyond ±90° (mechanically)
+                "hemisphere": "south" if mech.hemisphere().sign < 0.0 else "north",
                 "at_home": mech.at_home_position(),
                 "homed": mech.homed,
                 "slew": None if mech.slew is None else mech.slew.kind,

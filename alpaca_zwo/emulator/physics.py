@@ -21,13 +21,14 @@ from .state import (
     DEC,
     HOME_P,
     HOME_S,
+    HORIZON_TOLERANCE_DEG,
     RA,
     SLEW_STEP_S,
     SNAP_DEG,
     STEADY_STEP_S,
+    Hemisphere,
     Pulse,
     Slew,
-    axes_to_ha_dec,
     ramp,
 )
 
@@ -45,10 +46,10 @@ class Mechanics:
     t: float  # emulated seconds the physics has been advanced to
     pos: list[float]  # (primary, secondary) axis angles, degrees
     vel: list[float]  # their velocities, deg/s
-    last_side: sky.PierSide
+    outer: bool  # the Dec axis through the pole (Hemisphere.side names the pointing state)
     slew: Slew | None
     braking_until: float  # emulated time a slew stopped by :Q# ends braking (GOTO state held till then)
-    moves: list[float | None]  # manual moves per axis, deg/s
+    moves: list[float | None]  # manual moves per axis, deg/s of the axis (alt-az: of the sky)
     pulses: list[Pulse | None]
     speed: float  # the latched :Rn#/:Rv# speed, multiples of sidereal
     disturbed_t: float  # when a slew, move or untracked motion last ran (alt-az zenith rule)
@@ -78,7 +79,7 @@ class Mechanics:
         """At home, still, not tracking, no target, offsets or alignment (flash settings are not here)."""
         self.pos = [HOME_P, HOME_S]
         self.vel = [0.0, 0.0]
-        self.last_side = sky.PierSide.WEST
+        self.outer = False
         self.slew = None
         self.braking_until = self.t
         self.moves = [None, None]
@@ -131,15 +132,21 @@ class Mechanics:
     def altaz(self) -> bool:
         return self._flash.mode_in_effect is MountMode.ALTAZ
 
+    def hemisphere(self) -> Hemisphere:
+        """The hemisphere of the site the mount holds now: a latitude set across the equator while
+        powered changes what the axes point at from that instant (the axes stay where they are)."""
+        return Hemisphere.of(self._site.latitude_deg)
+
     def _until_meridian(self, dt: float) -> float:
         """Shorten a steady tracking step so the meridian stop happens where it should."""
         if not self.tracking or self.altaz():  # an alt-az mount has no meridian limit
             return dt
-        v = self.vel[RA]
-        p = self.pos[RA]
+        hemisphere = self.hemisphere()
+        v = hemisphere.primary_rate(self.vel[RA])  # toward the meridian stop when positive
+        past = hemisphere.past_meridian(self.pos[RA])
         stop = self.meridian_stop_deg()
-        if v > 0.0 and v == self.commanded(RA) and p <= stop < p + v * dt:
-            return max((stop - p) / v + 1e-9, 1e-9)
+        if v > 0.0 and self.vel[RA] == self.commanded(RA) and past <= stop < past + v * dt:
+            return max((stop - past) / v + 1e-9, 1e-9)
         return dt
 
     def _step(self, dt: float) -> None:
@@ -191,7 +198,7 @@ class Mechanics:
 
     def _arrive(self, slew: Slew) -> None:
         self.slew = None
-        self.last_side = slew.side
+        self.outer = slew.outer
         if slew.kind == "goto":
             self.tracking = True  # GOTO arrival switches tracking on, at the selected rate
             self.track_error = None
@@ -233,8 +240,8 @@ class Mechanics:
         if (move is not None or pulse is not None) and not self.tracking:
             # Moves and pulses are relative to the sky: the RA reading changes at the commanded
             # rate whether or not tracking is on (PYAM5 observation), so they ride on sidereal.
-            return SIDEREAL_DEG_S + extra
-        return tracking + extra
+            tracking = SIDEREAL_DEG_S
+        return self.ra_sign() * tracking + extra
 
     def _tracking_velocity(self) -> float:
         return {
@@ -249,20 +256,21 @@ class Mechanics:
             if self.pos[DEC] > 90.0 + 1e-9:  # carried over the zenith: "altitude inverted"
                 self.tracking = False
                 self.track_error = 10
-            elif self.raw_altitude() < 0.0:
+            elif self.below_horizon():
                 self.tracking = False
                 self.track_error = 5
             return
-        if self.pos[RA] > self.meridian_stop_deg():
+        if self.hemisphere().past_meridian(self.pos[RA]) > self.meridian_stop_deg():
             self.tracking = False
             self.track_error = 8
             return
-        if self.raw_altitude() < 0.0:
+        if self.below_horizon():
             self.tracking = False
             self.track_error = 5
 
     def meridian_stop_deg(self) -> float:
-        """Primary-axis angle past which tracking stops (field notes §5.3, ZWO v2.1 p.18)."""
+        """Degrees past the meridian (``Hemisphere.past_meridian``) at which tracking stops (field
+        notes §5.3, ZWO v2.1 p.18)."""
         settings = self._flash.persist.meridian
         limit = float(settings.limit_degrees)
         if limit < 0.0:
@@ -270,11 +278,12 @@ class Mechanics:
         return max(limit, 1.0) if settings.track_after else 1.0
 
     def _note_side(self) -> None:
+        """Which side the Dec axis is on; exactly at the pole it stays the side it came from."""
         s = self.pos[DEC]
         if s < 90.0 - 1e-9 and s > -90.0 + 1e-9:
-            self.last_side = sky.PierSide.WEST
+            self.outer = False
         elif s > 90.0 + 1e-9 or s < -90.0 - 1e-9:
-            self.last_side = sky.PierSide.EAST
+            self.outer = True
 
     # ---------------------------------------------------------------- derived quantities
 
@@ -282,7 +291,8 @@ class Mechanics:
         return abs(self.pos[RA] - HOME_P) < AT_HOME_DEG and abs(self.pos[DEC] - HOME_S) < AT_HOME_DEG
 
     def side(self) -> sky.PierSide:
-        return self.last_side
+        """The ASCOM pointing state of the axes at the site's hemisphere."""
+        return self.hemisphere().side(self.outer)
 
     def moving(self) -> bool:
         """A slew, manual move or pulse is under way (tracking alone does not count)."""
@@ -293,20 +303,31 @@ class Mechanics:
         )
 
     def dec_sign(self) -> float:
-        """+1 when raising the secondary angle raises Dec (west side), -1 through the pole; in alt-az
-        mode moves are sky motions (the alt-az controller turns them into axis motions), so +1."""
+        """+1 when raising the secondary angle raises Dec, else -1 (``Hemisphere.dec_rate_sign``); in
+        alt-az mode moves are sky motions (the alt-az controller turns them into axis motions), so +1."""
         if self.altaz():
             return 1.0
-        return 1.0 if self.side() is sky.PierSide.WEST else -1.0
+        return self.hemisphere().dec_rate_sign(self.outer)
+
+    def ra_sign(self) -> float:
+        """+1 when raising the primary angle raises the hour angle (north of the equator), -1 south
+        of it; in alt-az mode RA speeds are sky motions, so +1."""
+        if self.altaz():
+            return 1.0
+        return self.hemisphere().primary_rate(1.0)
 
     def raw_ha_dec(self) -> tuple[float, float]:
         if self.altaz():
             return axes_to_ha_dec_altaz(self.pos[RA], self.pos[DEC], self._site.latitude_deg)
-        return axes_to_ha_dec(self.pos[RA], self.pos[DEC])
+        return self.hemisphere().ha_dec(self.pos[RA], self.pos[DEC])
 
     def raw_altitude(self) -> float:
         ha, dec = self.raw_ha_dec()
         return sky.equatorial_to_horizontal(ha, dec, self._site.latitude_deg)[0]
+
+    def below_horizon(self) -> bool:
+        """Under the horizon by more than rounding: on the equator home points at the pole, on it."""
+        return self.raw_altitude() < -HORIZON_TOLERANCE_DEG
 
     def reported(self) -> tuple[float, float]:
         ha, dec = self.raw_ha_dec()

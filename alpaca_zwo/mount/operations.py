@@ -23,13 +23,15 @@ from dataclasses import replace
 from datetime import datetime, timedelta, timezone
 from typing import Any
 
+from .. import sky
 from .._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
-from ..sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S
+from ..sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S, PierSide
 from ..zwo import protocol, wire_values
 from ..zwo.link import Link, Priority
 from ..zwo.protocol import TrackingState
-from ..zwo.wire_values import Direction, MeridianSettings, MountStatus, TrackRate
+from ..zwo.wire_values import Direction, MeridianSettings, MountMode, MountStatus, TrackRate
 from .estimator import PositionEstimator, SyncRemainder, wire_position
+from .pier import DecSense, PierSides
 from .settings_cache import DEFAULT_REFRESH_S, SETTINGS_CHANGING, SettingsCache
 from .state import MountInfo, MountSettings, MountState
 from .timekeeping import TimeKeeper
@@ -96,7 +98,10 @@ class Mount:
         self._poll_wake = threading.Event()
         self._stop = threading.Event()
         self._poller: threading.Thread | None = None
-        self._move_directions: dict[int, Direction] = {}
+        self._move_directions: dict[int, Direction] = {}  # axis -> the letter of the move running
+        self._move_rates: dict[int, float] = {}  # axis -> its :Rv multiple
+        self._turn_round = False  # a reading showed the Dec move going the wrong way (mount/pier.py)
+        self._side_known = False  # the last published side is known, not merely read (PierSides.trusted)
         #: Sky rates (deg/s) of the slow moves that carry a tracking rate offset (see drift()).
         self._drift = [0.0, 0.0]
         #: The one time reference: what UTCDate, the page and the bridges read, what a push sends.
@@ -113,6 +118,16 @@ class Mount:
         self._publish_lock = threading.Lock()
         #: The mount-stored settings as last read: what the setup page shows (mount/settings_cache.py).
         self.settings_cache = SettingsCache(settings_refresh_s)
+        #: The mount's own alignment offset (RA hours, Dec degrees) as far as the server made it: the
+        #: sum of its syncs since the mount last forgot them. The axes point at the mount's reading
+        #: minus it, so the mount chooses GOTO sides and stops at its meridian limit by that hour angle.
+        self._alignment = (0.0, 0.0)
+        #: The meridian setting last written or read: a GOTO's side depends on it (sky.goto_pier_side).
+        self._meridian: MeridianSettings | None = None
+        #: What the mount's pier letters and N/S commands mean (mount/pier.py); guarded by _pier_lock.
+        self._pier_lock = threading.Lock()
+        self._pier = PierSides()
+        self._dec_sense = DecSense()
 
     # -- state -------------------------------------------------------------------------------
 
@@ -176,6 +191,31 @@ class Mount:
         """Ask the poller for a new reading as soon as the line is free."""
         self._poll_wake.set()
 
+    # -- the site's hemisphere and the mount's own frame ----------------------------------------
+
+    def site(self) -> tuple[float, float]:
+        """(latitude, east longitude) the mount holds: as pushed, else as configured."""
+        return self._pushed_site if self._pushed_site is not None else self._site()
+
+    def lst(self) -> float:
+        """Local sidereal time now, by the clock the mount was given and the site it holds."""
+        return sky.local_sidereal_time(self.clock() + self.clock_offset, self.site()[1])
+
+    def mechanical_hour_angle(self, ra: float) -> float:
+        """The hour angle the mount's axes point at (or will) for a client-frame RA: the sync
+        remainder and the mount's own alignment offset taken off. The mount chooses a GOTO's side
+        and stops at its meridian limit by this hour angle, not by the one a client sees."""
+        mount_ra = self._remainder.to_mount(ra, 0.0)[0]
+        return sky.hour_angle(self.lst(), mount_ra - self._alignment[0])
+
+    @property
+    def pier_conventions(self) -> dict[str, bool | None]:
+        """What the server has learned of the mount's pier letters and N/S moves (mount/pier.py)."""
+        with self._pier_lock:
+            return {"mechanical_names": self._pier.mechanical_names,
+                    "follows_hour_angle": self._pier.follows_hour_angle,
+                    "mechanical_ns": self._dec_sense.mechanical}
+
     # -- lifecycle ---------------------------------------------------------------------------
 
     def connect(self) -> None:
@@ -220,6 +260,9 @@ class Mount:
                 return
             info = MountInfo(self._exec(protocol.query("GVP")), self._exec(protocol.query("GV")))
             self.link.expect_probe_reply(info.model)
+            if self._state.info is not None and info != self._state.info:
+                with self._pier_lock:  # another mount, or other firmware: learn its conventions afresh
+                    self._pier, self._dec_sense = PierSides(), DecSense()
             status = self._exec(protocol.query("GU"))
             mount_date = self._exec(protocol.query("GC"))
             self._check_restart(status, mount_date.year <= 2000)
@@ -246,6 +289,10 @@ class Mount:
                 self._estimator.invalidate()
                 self._goto_target = None
             self._pushed_site = None
+            self._alignment = (0.0, 0.0)
+            with self._pier_lock:
+                self._pier.forget()
+                self._dec_sense.cancel()
 
     def push_time(self) -> None:
         """Set the mount's clock to the host's, with the zone sign the mount expects (negated).
@@ -317,6 +364,10 @@ class Mount:
         self._exec(protocol.set_longitude(east_longitude))
         site = (round(latitude * 3600.0) / 3600.0, round(east_longitude * 3600.0) / 3600.0)
         previous, self._pushed_site = self._pushed_site, site
+        if previous is None or (previous[0] < 0.0) != (site[0] < 0.0):
+            with self._pier_lock:  # across the equator the same axes are the other pointing state
+                self._pier.forget()
+                self._dec_sense.cancel()
         shift: float | None = None
         if previous is not None and (site[0] == previous[0] or not self._state.altaz):
             # Equatorial readings move with the sidereal time only: exactly by the change of longitude.
@@ -372,8 +423,24 @@ class Mount:
         with self._estimator_lock:
             self._estimator.invalidate()
             self._goto_target = wire
+        predicted, certain = self._goto_side(wire[0])
+        with self._pier_lock:
+            self._pier.goto_sent(predicted, certain, self.monotonic())
+            self._dec_sense.cancel()
         self.refresh()
         return remainder.to_sky(*wire)
+
+    def _goto_side(self, mount_ra: float) -> tuple[PierSide, bool]:
+        """The side a GOTO to ``mount_ra`` (the mount's frame) lands on by the meridian setting in
+        force, and whether both readings of the GOTO side rule agree on it (docs/meridian.md: they
+        differ only for a target past the meridian within a positive "track past" limit)."""
+        ha = sky.hour_angle(self.lst(), mount_ra - self._alignment[0])
+        meridian = self._meridian or MeridianSettings()
+        limit = float(meridian.limit_degrees)
+        past_limit = limit if limit < 0.0 or meridian.track_after else 0.0  # A1: flips past the limit
+        at_meridian = min(limit, 0.0)  # A2: flips at the meridian
+        side = sky.goto_pier_side(ha, PierSide.UNKNOWN, past_limit)
+        return side, side is sky.goto_pier_side(ha, PierSide.UNKNOWN, at_meridian)
 
     def _send_goto(self, ra: float, dec: float, guard: Guard | None) -> tuple[SyncRemainder, tuple[float, float]]:
         """``:Sr :Sd :MS#`` for a client's target: the mount gets it without the sync remainder."""
@@ -389,9 +456,11 @@ class Mount:
         """Sync the mount to a client's position. The mount takes it in whole seconds and arcseconds
         and reads exactly those afterwards; the rest becomes the sync remainder (SyncRemainder)."""
         self.ensure_initialised()
+        before = self._mount_frame_position()
         self._exec(protocol.set_target_ra(ra))
         self._exec(protocol.set_target_dec(dec))
         self._exec(protocol.query("CM"))
+        self._aligned(before, wire_position(ra, dec))
         now = self.monotonic()
         with self._estimator_lock:
             self._remainder = SyncRemainder.of_sync(ra, dec)
@@ -399,6 +468,21 @@ class Mount:
             self._estimator.set_ra_rate(self._ra_drift(), now)
         self._changed(ra=ra % 24.0, dec=dec, position_time=now)
         self.refresh()
+
+    def _mount_frame_position(self) -> tuple[float, float] | None:
+        """The position now as the mount reads it (the sync remainder taken off)."""
+        here = self.position()
+        return None if here is None else self._remainder.to_mount(*here)
+
+    def _aligned(self, before: tuple[float, float] | None, after: tuple[float, float]) -> None:
+        """A sync moved the mount's readings from ``before`` to ``after``: its alignment offset grows by
+        that (the mount adds the difference to every reading, as ``:CM#`` does on the emulator)."""
+        with self._pier_lock:
+            self._dec_sense.cancel()
+        if before is None:
+            return
+        d_ra = (after[0] - before[0] + 12.0) % 24.0 - 12.0
+        self._alignment = (self._alignment[0] + d_ra, self._alignment[1] + after[1] - before[1])
 
     def sync_estimate(self, ra: float, dec: float) -> None:
         """Adopt exact coordinates the mount already agrees with, without a sync command."""
@@ -413,6 +497,9 @@ class Mount:
         waiting for the exchange in flight; tracking keeps its setting."""
         self.link.send_urgent(protocol.query("Q"))
         self._move_directions.clear()
+        self._move_rates.clear()
+        with self._pier_lock:
+            self._dec_sense.cancel()
         self._drift = [0.0, 0.0]
         self._rate_changed()
         with self._estimator_lock:
@@ -428,24 +515,27 @@ class Mount:
         moving = set(self._state.moving_axes)
         if rate_deg_s == 0.0:
             previous = self._move_directions.pop(axis, None)
+            self._move_rates.pop(axis, None)
             directions = [previous] if previous else (
                 [Direction.EAST, Direction.WEST] if axis == 0 else [Direction.NORTH, Direction.SOUTH])
             for direction in directions:
                 self.link.send_urgent(protocol.stop_direction(direction))
+            if axis == 1:
+                with self._pier_lock:
+                    self._dec_sense.ended(self.monotonic())
             moving.discard(axis)
         else:
-            multiple = min(abs(rate_deg_s) / SIDEREAL_DEG_S, wire_values.SLEW_SPEEDS[-1])
-            if axis == 0:
-                direction = Direction.EAST if rate_deg_s > 0 else Direction.WEST
-            else:
-                direction = Direction.NORTH if rate_deg_s > 0 else Direction.SOUTH
+            multiple = round(min(abs(rate_deg_s) / SIDEREAL_DEG_S, wire_values.SLEW_SPEEDS[-1]), 2)
+            direction = self._wire_direction(self._axis_directions(axis)[0 if rate_deg_s > 0 else 1])
             opposite = {Direction.EAST: Direction.WEST, Direction.WEST: Direction.EAST,
                         Direction.NORTH: Direction.SOUTH, Direction.SOUTH: Direction.NORTH}[direction]
             if self._move_directions.get(axis) is opposite:
                 self._exec(protocol.stop_direction(opposite))
-            self._exec(protocol.set_variable_speed(round(multiple, 2)))
+            self._exec(protocol.set_variable_speed(multiple))
             self._exec(protocol.move(direction), guard=guard)
             self._move_directions[axis] = direction
+            self._move_rates[axis] = multiple
+            self._motion_started(direction, None)
             moving.add(axis)
         with self._estimator_lock:
             self._estimator.invalidate()
@@ -477,10 +567,11 @@ class Mount:
             rate_deg_s = 0.0
             if self._drift[axis] != 0.0:
                 direction = self._move_directions.pop(axis, None)
+                self._move_rates.pop(axis, None)
                 for d in [direction] if direction else self._axis_directions(axis):
                     written = self._mount_time(self.link.send_urgent(protocol.stop_direction(d), idle=True))
         else:
-            direction = self._axis_directions(axis)[0 if rate_deg_s > 0 else 1]
+            direction = self._wire_direction(self._axis_directions(axis)[0 if rate_deg_s > 0 else 1])
             previous = self._move_directions.get(axis)
             if previous is not None and previous is not direction:
                 self.link.send_urgent(protocol.stop_direction(previous))  # :Me# does not end a running :Mw#
@@ -493,6 +584,7 @@ class Mount:
                 self._exec(self.link.PROBE)
             written = self._send_on_idle_line(protocol.move(direction), guard)
             self._move_directions[axis] = direction
+            self._move_rates[axis] = multiple
             rate_deg_s = (multiple if rate_deg_s > 0 else -multiple) * SIDEREAL_DEG_S
         self._drift[axis] = rate_deg_s
         self._rate_changed()
@@ -501,6 +593,31 @@ class Mount:
     def _mount_time(self, monotonic_instant: float) -> float:
         """A ``time.monotonic()`` instant (the link's clock) on the mount's clock."""
         return self.monotonic() + (monotonic_instant - time.monotonic()) * self._clock_rate
+
+    def _wire_direction(self, wanted: Direction) -> Direction:
+        """The letter that moves the sky toward ``wanted`` on the side the mount is on: N/S swapped on
+        pierWest once the mount has shown its N/S are mechanical (mount/pier.py); E/W as they are.
+        An alt-az mount's moves are sky motions."""
+        state = self._state
+        if state.altaz:
+            return wanted
+        with self._pier_lock:
+            return self._dec_sense.letter(wanted, state.side)
+
+    def _motion_started(self, sent: Direction, until: float | None) -> None:
+        """A move or pulse went out: an RA one may leave the counterweight anywhere, a Dec one can
+        teach which way N/S go (``until``: when it ends, mount time; None while a move runs)."""
+        state = self._state
+        if state.altaz:
+            return
+        with self._pier_lock:
+            if sent not in (Direction.EAST, Direction.WEST):
+                if self._side_known:  # a side merely read could teach the wrong N/S
+                    self._dec_sense.started(sent, state.side, state.raw_dec, until)
+                else:
+                    self._dec_sense.cancel()
+            elif until is None:  # a pulse moves arcseconds; a move may take the counterweight anywhere
+                self._pier.ra_moved()
 
     @staticmethod
     def _axis_directions(axis: int) -> tuple[Direction, Direction]:
@@ -516,9 +633,11 @@ class Mount:
         if not 0 <= milliseconds <= PULSE_CHUNK_MS:
             raise ValueError(f"pulse of {milliseconds} ms is outside 0..{PULSE_CHUNK_MS}")
         state = self._state
-        self._exec(protocol.pulse_guide(direction, milliseconds), guard=guard)
+        sent = self._wire_direction(direction)
+        self._exec(protocol.pulse_guide(sent, milliseconds), guard=guard)
         start = self.monotonic()  # the mount times the pulse from its arrival, not from before it was sent
         end = start + milliseconds / 1000.0
+        self._motion_started(sent, end)
         speed_deg = state.guide_rate * SIDEREAL_DEG_S
         dra = ddec = 0.0
         if direction is Direction.EAST:
@@ -552,6 +671,8 @@ class Mount:
 
     def home(self, guard: Guard | None = None) -> None:
         self._exec(protocol.query("hC"), guard=guard)
+        with self._pier_lock:
+            self._dec_sense.cancel()
         with self._estimator_lock:
             self._estimator.invalidate()
             self._goto_target = None
@@ -574,10 +695,13 @@ class Mount:
             heavy_duty=None if heavy is None else heavy == 720, buzzer=get("GBu"), guide_rate=get("Ggr"),
             daylight_saving=get("GH"))
         self.settings_cache.store(settings, generation)
+        if meridian is not None:
+            self._meridian = meridian
         return settings
 
     def set_meridian(self, settings: MeridianSettings) -> None:
         self._exec(protocol.set_meridian(settings))
+        self._meridian = settings
 
     def set_limits_enabled(self, enabled: bool) -> None:
         self._exec(protocol.query("SLE" if enabled else "SLD"))
@@ -604,6 +728,7 @@ class Mount:
         self._exec(protocol.query("NSC"))
         with self._estimator_lock:
             self._remainder = SyncRemainder()
+        self._alignment = (0.0, 0.0)
         self._reread_position()
 
     def raw(self, text: str) -> str:
@@ -613,24 +738,31 @@ class Mount:
         body = body[:-1] if body.endswith("#") else body
         match = protocol.match_command(body)
         command = match.command if match else protocol.Command(body, protocol.ReplyKind.NONE, "unknown")
+        before = self._mount_frame_position() if command.code in ("CM", "SMMC") else None
         try:
             reply = self.link.exchange(protocol.Request(command, f":{body}#"), Priority.COMMAND)
         finally:
             if command.code in SETTINGS_CHANGING:
                 self.settings_cache.mark_stale()
         if command.code in _READING_CHANGING:
-            self._raw_changed_readings(command.code)
+            self._raw_changed_readings(command.code, before)
         return reply
 
-    def _raw_changed_readings(self, code: str) -> None:
+    def _raw_changed_readings(self, code: str, before: tuple[float, float] | None) -> None:
         """A raw command changed what the readings mean: the effect the typed method would have. A raw
-        sync point is on the wire already, so it, like ``:NSC#``, leaves no sync remainder."""
+        sync point is on the wire already, so it, like ``:NSC#``, leaves no sync remainder; the
+        alignment offset grows by what the readings moved (from ``before``, the position just before)."""
         with self._estimator_lock:
             if code in ("CM", "SMMC", "NSC"):
                 self._remainder = SyncRemainder()
+        if code == "NSC":
+            self._alignment = (0.0, 0.0)
         if code in ("St", "Sg"):
             self._pushed_site = None  # no longer what the server pushed: the next push cannot shift
         self._reread_position()
+        state = self._state
+        if code in ("CM", "SMMC") and state.raw_ra is not None and state.raw_dec is not None:
+            self._aligned(before, (state.raw_ra, state.raw_dec))
 
     # -- polling -----------------------------------------------------------------------------
 
@@ -651,7 +783,10 @@ class Mount:
             if self._epoch != epoch:
                 self.refresh()
                 return self._state
-            return self._publish_poll(ra, dec, now, status, tracking, pier)
+            published = self._publish_poll(ra, dec, now, status, tracking, pier)
+        if self._turn_round:
+            self._turn_dec_move_round()
+        return published
 
     def _publish_poll(self, ra: float, dec: float, now: float, status: MountStatus, tracking: TrackingState,
                       pier: str) -> MountState:
@@ -672,8 +807,43 @@ class Mount:
                     self._estimator.set_ra_rate(drift, now)
                 best = self._estimator.observe(ra, dec, now)
         best = self._remainder.to_sky(*best)
+        side = self._read_side(ra, dec, now, pier, moving, status)
         return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now, status=status,
-                             status_time=now, tracking=tracking, pier=pier, poll_error="")
+                             status_time=now, tracking=tracking, pier=pier, side=side, poll_error="")
+
+    def _read_side(self, ra: float, dec: float, now: float, letter: str, moving: bool,
+                   status: MountStatus) -> PierSide:
+        """The pointing state the letter means (mount/pier.py); a Dec move found going the wrong way
+        (the mount's N/S are mechanical) is turned round here, as soon as a reading shows it."""
+        if status.mode is MountMode.ALTAZ:
+            return PierSide.UNKNOWN  # an alt-az mount has no pier side
+        ha = sky.hour_angle(self.lst(), ra - self._alignment[0])
+        south = self.site()[0] < 0.0
+        with self._pier_lock:
+            side = self._pier.observe(letter, ha, south, moving, now)
+            self._side_known = self._pier.trusted(ha, south)
+            reversed_now = self._dec_sense.observe(dec, side, now)
+        if reversed_now and 1 in self._move_directions:
+            self._turn_round = True  # done by the poller once the publish lock is released
+        return side
+
+    def _turn_dec_move_round(self) -> None:
+        """The Dec move running was sent with a letter that moves the sky the other way on this side:
+        send the other letter at the same speed (the mount keeps the latched :Rv for it)."""
+        self._turn_round = False
+        sent, multiple = self._move_directions.get(1), self._move_rates.get(1)
+        if sent is None or multiple is None:
+            return
+        other = Direction.SOUTH if sent is Direction.NORTH else Direction.NORTH
+        try:
+            self.link.send_urgent(protocol.stop_direction(sent))
+            self._exec(protocol.set_variable_speed(multiple))
+            self._exec(protocol.move(other))
+            self._move_directions[1] = other
+            log.warning("Dec move turned round: %s moved the sky the other way on this side", sent.name)
+        except AlpacaZwoError as exc:
+            log.error("could not turn the Dec move round (%s): stopping it", exc)
+            self.link.send_urgent(protocol.stop_direction(sent))
 
     def _poll_loop(self) -> None:
         while not self._stop.is_set():

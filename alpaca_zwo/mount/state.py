@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+from ..sky import PierSide
 from ..zwo.firmware import has_feature
 from ..zwo.link import LinkStatus
 from ..zwo.protocol import TrackingState
@@ -54,7 +55,8 @@ class MountState:
     status: MountStatus | None = None
     status_time: float | None = None
     tracking: TrackingState | None = None
-    pier: str | None = None  # 'E', 'W' or 'N' (home)
+    pier: str | None = None  # 'E', 'W' or 'N' (home): the mount's letter as it printed it
+    side: PierSide = PierSide.UNKNOWN  # the pointing state that letter means (mount/pier.py); UNKNOWN at home
     tracking_rate: TrackRate = TrackRate.SIDEREAL
     guide_rate: float = 0.5
     moving_axes: frozenset[int] = frozenset()

@@ -382,11 +382,9 @@ class Telescope:
         state = self._state()
         if self._altaz_mode():
             return int(PierSide.UNKNOWN)  # an alt-az mount has no pier side (ASCOM pierUnknown)
-        if state.pier == "W":
-            return int(PierSide.WEST)
-        if state.pier == "E":
-            return int(PierSide.EAST)
-        return int(sky.pointing_state(sky.hour_angle(self._lst(), self._position()[0])))
+        if state.side is not PierSide.UNKNOWN:  # the letter as the mount's convention means it (mount/pier.py)
+            return int(state.side)
+        return int(sky.pointing_state(self.mount.mechanical_hour_angle(self._position()[0])))
 
     def set_side_of_pier(self, value: int) -> None:
         """Flip to the other pointing state on the current position: a GOTO under a meridian limit
@@ -404,23 +402,27 @@ class Telescope:
         if self.side_of_pier() == value:
             return
         ra, dec = self._position()
-        limit = sky.side_limit_deg(sky.hour_angle(self._lst(), ra), PierSide(value))
+        # One frame: the mount applies the limit to the hour angle its axes point at, which a sync
+        # has moved away from the one a client sees; so the limit and the refusal use that one.
+        ha = self.mount.mechanical_hour_angle(ra)
+        limit = sky.side_limit_deg(ha, PierSide(value))
         if limit is None:
-            raise InvalidOperation(f"the mount cannot point at hour angle {sky.hour_angle(self._lst(), ra):+.2f} h "
-                                   f"from {PierSide(value).name.lower()} of the pier (15° past the meridian at most)")
+            side = "pierEast" if value == PierSide.EAST else "pierWest"
+            raise InvalidOperation(
+                f"the mount cannot take {side} here: its axes point at hour angle {ha:+.2f} h, and a German mount "
+                f"reaches {side} there only within 15° of the meridian (its meridian limit's range)")
         pointing.check_above_limits(self.settings, self._lst(), ra, dec)
         self.flips.goto(ra, dec, side_setting(limit))
 
     def _pier(self) -> PierSide:
-        pier = self.mount.state.pier
-        return PierSide.EAST if pier == "E" else PierSide.WEST if pier == "W" else PierSide.UNKNOWN
+        return self.mount.state.side
 
     def destination_side_of_pier(self, right_ascension: float, declination: float) -> int:
         pointing.check_equatorial(right_ascension, declination)
         self.connection.require_connected()
         if self._altaz_mode():
             return int(PierSide.UNKNOWN)  # no pier side to predict in alt-az mode
-        ha = sky.hour_angle(self._lst(), right_ascension)
+        ha = self.mount.mechanical_hour_angle(right_ascension)  # the mount chooses by its axes' hour angle
         side_rule = sky.kept_goto_side if self.caps.flips_by_limit() else sky.goto_pier_side
         return int(side_rule(ha, self._pier(), self._flip_limit_deg()))
 
@@ -529,7 +531,7 @@ class Telescope:
         None where the mount's own setting gives the side DestinationSideOfPier promises."""
         if not self.caps.flips_by_limit():
             return None  # alt-az, or firmware without :STa: the mount's own rule
-        ha, side, own_limit = sky.hour_angle(self._lst(), ra), self._pier(), self._flip_limit_deg()
+        ha, side, own_limit = self.mount.mechanical_hour_angle(ra), self._pier(), self._flip_limit_deg()
         limit = sky.side_limit_deg(ha, PierSide.EAST)
         if limit is None or sky.kept_goto_side(ha, side, own_limit) is sky.goto_pier_side(ha, side, own_limit):
             return None

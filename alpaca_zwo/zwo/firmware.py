@@ -26,6 +26,8 @@ __all__ = [
     "HOME_FLAGS",
     "HP_REPLIES",
     "MODELS",
+    "NS_MOVES",
+    "PIER_LETTERS",
     "PRESETS",
     "FirmwareVariant",
     "has_feature",
@@ -39,6 +41,13 @@ GT_MAPPINGS = ("english", "chinese")
 GPS_REPLIES = ("digits", "empty")
 HP_REPLIES = (None, "1#")
 GH_REPLIES = ("empty", "zero", "homed")
+#: What ``:Gm#``'s E/W names (docs/southern.md): the pointing state of the axes at the site, the axes'
+#: mechanical state as a northern mount names it (reversed south of the equator), or the side of the
+#: pointing's hour angle whatever the axes (the two differ where the counterweight is up).
+PIER_LETTERS = ("pointing_state", "mechanical", "hour_angle")
+#: What ``:Mn#``/``:Mgn`` move (docs/southern.md): toward the sky's north on either pier side, or one
+#: way of the Dec axis (north on pierEast, south on pierWest).
+NS_MOVES = ("sky", "mechanical")
 
 #: The firmware version from which a feature exists (field notes §5.6): the one table both the
 #: driver (what it may send) and the emulator (what it answers) read.
@@ -83,6 +92,16 @@ class FirmwareVariant:
     compound_goto_sync: bool = False  # False: :SMeq/:SMMC answer e2# as on hardware
     custom_tracking: bool = False  # False: :STR gets no reply (absent on real firmware)
     gmza_south_azimuth: bool = False  # True: :GMZA# azimuth from south (AM5N showed 180 at home)
+    #: The open readings of the evidence (docs/meridian.md, docs/southern.md): where a GOTO's side
+    #: flips (False: past the track-past limit; True: at the meridian itself, a negative limit still
+    #: moving the line before it), what :Gm# names, what :Mn#/:Mgn move.
+    goto_flip_at_meridian: bool = False
+    pier_letter: str = "pointing_state"  # pointing_state | mechanical | hour_angle
+    ns_moves: str = "sky"  # sky | mechanical
+    #: What a power cycle keeps of the site: False, the site stored at the factory (or the emulator's
+    #: start) comes back, as an AM5N on 1.6.3 read Suzhou at power-up; True, the last :St/:Sg are
+    #: kept, as the NVS keys "latitude"/"longitude" of the 1.8.8 firmware suggest (docs/southern.md).
+    site_in_flash: bool = False
     name: str = "custom"  # the preset this came from ("custom" when built by hand)
     description: str = ""  # where this build's behaviour was seen
 
@@ -97,6 +116,8 @@ class FirmwareVariant:
             "gps_reply": GPS_REPLIES,
             "hp_reply": HP_REPLIES,
             "gh_reply": GH_REPLIES,
+            "pier_letter": PIER_LETTERS,
+            "ns_moves": NS_MOVES,
         }
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:

@@ -115,9 +115,10 @@ class Rig:
 
 
 @contextmanager
-def running_server(tmp: Path, equinox: str = "J2000", connect_alpaca: bool = True) -> Iterator[Rig]:
+def running_server(tmp: Path, equinox: str = "J2000", connect_alpaca: bool = True,
+                   site: SiteSettings = SITE) -> Iterator[Rig]:
     """A real server on the emulator (real time) with Stellarium's server on a free loopback port."""
-    settings = make_settings(site=SITE, stellarium=StellariumSettings(enabled=True, host="127.0.0.1", port=0,
+    settings = make_settings(site=site, stellarium=StellariumSettings(enabled=True, host="127.0.0.1", port=0,
                                                                       equinox=equinox))
     server = AlpacaZwoServer(SettingsStore(settings, tmp / "config.toml"))
     server.start()

@@ -26,6 +26,7 @@ from tests.bridges.stellarium_rig import (
     wait_until,
 )
 from tests.conftest import ServerFactory
+from tests.support.sites import EQUATOR, SYDNEY, Site
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -137,6 +138,30 @@ def test_goto_slews_the_mount_to_the_j2000_target(rig: Rig, client: StellariumCl
     assert status["last_command"]["result"] == "slewing"
     assert abs(status["last_command"]["ra_hours"] - target[0]) * 54000 < 0.01
     assert any("goto from" in r.getMessage() for r in caplog.records if r.levelno == logging.INFO)
+
+
+@pytest.mark.parametrize("site", [SYDNEY, EQUATOR], ids=["sydney", "equator"])
+def test_positions_and_gotos_south_of_the_equator_and_on_it(tmp_path: Path, site: Site) -> None:
+    """Issue 30: the stream agrees with ERFA for the site, and a goto toward the elevated pole lands
+    on the J2000 target (ERFA's place of date) from the side DestinationSideOfPier promised."""
+    with running_server(tmp_path, site=site.settings()) as rig:
+        rig.point_high(dec=site.dec(40.0))
+        client = StellariumClient(rig.stellarium_port)
+        try:
+            ra, dec, when = rig.alpaca.radec_and_time()
+            sent = client.latest_position()
+            expected = reference_to_j2000(ra, dec, when, site.settings())
+            assert separation_arcsec(sent.ra_hours, sent.dec_degrees, *expected) <= 0.1
+            lst = float(rig.alpaca.get("siderealtime"))
+            target = ((lst + 0.5) % 24.0, site.dec(25.0))  # J2000, just east of the meridian
+            client.goto(*target)
+            wait_until(lambda: rig.alpaca.get("slewing"), 10.0, "the mount to start slewing")
+            rig.alpaca.wait_slew_done()
+            ra, dec, when = rig.alpaca.radec_and_time()
+            assert separation_arcsec(ra, dec, *reference_to_apparent(*target, when, site.settings())) <= 5.0
+            assert rig.alpaca.get("sideofpier") == 1  # east of the meridian: pierWest, in both hemispheres
+        finally:
+            client.close()
 
 
 def test_goto_below_the_horizon_is_refused_and_the_connection_stays(rig: Rig, client: StellariumClient) -> None:

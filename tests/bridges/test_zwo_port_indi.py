@@ -8,6 +8,10 @@ polling adds nothing to the serial line (its queries are answered from the state
 
 Waiting is polling for an observable condition with a deadline: the driver polls once a second in
 real time, so nothing can be made synchronous.
+
+The whole run is made at Munich and at Sydney (issue 30), with declinations mirrored toward the
+elevated pole: INDI's driver passes a negative latitude and the :Gm# letter through untouched
+(docs/southern.md), so at a southern site it is the server's side of the port that must be right.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from alpaca_zwo.server import AlpacaZwoServer
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
 from tests.support.indi import IndiServer
+from tests.support.sites import SYDNEY, Site
 
 pytestmark = pytest.mark.skipif(
     shutil.which("indiserver") is None or shutil.which("indi_lx200am5") is None,
@@ -34,15 +39,22 @@ pytestmark = pytest.mark.skipif(
 
 SPEED = 5.0  # emulated seconds per real second: slews take seconds, long enough to abort one
 HORIZON_DEG = 20.0
+MUNICH = Site("munich", 48.1, 11.5, 500.0)
+
+
+@pytest.fixture(params=[MUNICH, SYDNEY], ids=["munich", "sydney"])
+def site(request: pytest.FixtureRequest) -> Site:
+    site: Site = request.param
+    return site
 
 
 @pytest.fixture
-def server(server_factory: ServerFactory) -> AlpacaZwoServer:
+def server(server_factory: ServerFactory, site: Site) -> AlpacaZwoServer:
     settings = make_settings(
         emulator=EmulatorSettings(speed=SPEED, baud=0),
         zwo_port=ZwoPortSettings(enabled=True, host="127.0.0.1", port=0),
         limits=LimitSettings(horizon=((0.0, HORIZON_DEG), (180.0, HORIZON_DEG))),
-        site=SiteSettings(latitude=48.1, longitude=11.5, elevation=500.0),
+        site=SiteSettings(latitude=site.latitude, longitude=site.longitude, elevation=site.elevation),
     )
     return server_factory(settings)
 
@@ -80,7 +92,7 @@ def _slew_done(alpaca: AlpacaTelescope) -> None:
 
 
 def test_indi_and_alpaca_see_each_others_gotos(indi: IndiServer, alpaca: AlpacaTelescope,
-                                               server: AlpacaZwoServer) -> None:
+                                               server: AlpacaZwoServer, site: Site) -> None:
     # 1. INDI reads the server's site (pushed by the server, answered from its settings).
     values = indi.get("GEOGRAPHIC_COORD.LAT", "GEOGRAPHIC_COORD.LONG")
     assert float(values["GEOGRAPHIC_COORD.LAT"]) == pytest.approx(alpaca.SiteLatitude, abs=1e-3)
@@ -89,14 +101,14 @@ def test_indi_and_alpaca_see_each_others_gotos(indi: IndiServer, alpaca: AlpacaT
     assert server.zwo_port.status()["programs"][0]["commands"] > 10
 
     # 2. Alpaca's slew: INDI's coordinates follow the mount to the target.
-    target = (_east(alpaca, -2.0), 40.0)
+    target = (_east(alpaca, -2.0), site.dec(40.0))
     alpaca.SlewToCoordinatesAsync(*target)
     _slew_done(alpaca)
     # :GR# has whole seconds of RA: up to 7.5" at the equator.
     wait_until(lambda: sky.angular_separation(*indi.coords()[:2], *target) < 10 / 3600, 20, "INDI to see Alpaca's slew")
 
     # 3. INDI's GOTO: Alpaca sees Slewing, then the mount at INDI's target, tracking.
-    target = (_east(alpaca, 2.0), 30.0)
+    target = (_east(alpaca, 2.0), site.dec(30.0))
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={target[0]};{target[1]}")
     wait_until(lambda: alpaca.Slewing, 10, "Alpaca to see INDI's GOTO")
@@ -104,12 +116,16 @@ def test_indi_and_alpaca_see_each_others_gotos(indi: IndiServer, alpaca: AlpacaT
     assert sky.angular_separation(alpaca.RightAscension, alpaca.Declination, *target) < 10 / 3600  # INDI's :Sr
     assert alpaca.Tracking
     wait_until(lambda: indi.coords()[2] == "Ok", 20, "INDI to see its GOTO end")
+    # 4. INDI reads the pier side the server reads: pierWest east of the meridian, in both hemispheres.
+    wait_until(lambda: indi.get("TELESCOPE_PIER_SIDE.PIER_WEST")["TELESCOPE_PIER_SIDE.PIER_WEST"] == "On", 20,
+               "INDI to show pierWest")
+    assert alpaca.SideOfPier == 1
 
 
 def test_an_abort_from_either_side_stops_both(indi: IndiServer, alpaca: AlpacaTelescope,
-                                               server: AlpacaZwoServer) -> None:
+                                               server: AlpacaZwoServer, site: Site) -> None:
     # INDI's abort stops Alpaca's slew.
-    far = (_east(alpaca, 3.0), 10.0)
+    far = (_east(alpaca, 3.0), site.dec(10.0))
     alpaca.SlewToCoordinatesAsync(*far)
     wait_until(lambda: alpaca.Slewing, 5, "Alpaca's slew to start")
     indi.set("TELESCOPE_ABORT_MOTION.ABORT=On")
@@ -117,7 +133,7 @@ def test_an_abort_from_either_side_stops_both(indi: IndiServer, alpaca: AlpacaTe
     assert sky.angular_separation(alpaca.RightAscension, alpaca.Declination, *far) > 5.0
 
     # Alpaca's abort stops INDI's GOTO: INDI sees the mount stopped short of its target.
-    far = (_east(alpaca, -3.0), 10.0)
+    far = (_east(alpaca, -3.0), site.dec(10.0))
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={far[0]};{far[1]}")
     model = server.emulators[0].model  # slewing once the mount has taken :MS# (INDI's reply is on its way)
@@ -131,17 +147,17 @@ def test_an_abort_from_either_side_stops_both(indi: IndiServer, alpaca: AlpacaTe
 
 
 def test_indi_retargets_during_its_own_goto(indi: IndiServer, alpaca: AlpacaTelescope,
-                                            server: AlpacaZwoServer) -> None:
+                                            server: AlpacaZwoServer, site: Site) -> None:
     """KStars' "slew to" during a slew: INDI's ``LX200Telescope::Goto`` sends ``:Q#``, sleeps 100 ms
     and sends ``:Sr :Sd :MS#`` while the mount still brakes. The port must take that GOTO (queued
     behind the braking), so the mount lands on the new target and INDI sees its slew end, not fail."""
     model = server.emulators[0].model
-    first = (_east(alpaca, -3.0), 10.0)
+    first = (_east(alpaca, -3.0), site.dec(10.0))
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={first[0]};{first[1]}")
     wait_until(lambda: max(abs(v) for v in model.snapshot()["velocity_deg_s"]) > 3.0, 10, "INDI's GOTO at speed")
     wait_until(lambda: indi.coords()[2] == "Busy", 10, "INDI to know it is slewing (so it aborts first)")
-    second = (_east(alpaca, 2.0), 30.0)
+    second = (_east(alpaca, 2.0), site.dec(30.0))
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={second[0]};{second[1]}")
     wait_until(lambda: not model.slewing() and sky.angular_separation(*model.position(), *second) < 10 / 3600,
                60, "the mount to land on INDI's second target")  # INDI's :Sr has whole seconds
@@ -150,9 +166,10 @@ def test_indi_retargets_during_its_own_goto(indi: IndiServer, alpaca: AlpacaTele
 
 
 def test_indi_goto_below_the_configured_horizon_is_refused(indi: IndiServer, alpaca: AlpacaTelescope,
-                                                           server: AlpacaZwoServer) -> None:
+                                                           server: AlpacaZwoServer, site: Site) -> None:
     before = (alpaca.RightAscension, alpaca.Declination)
-    low = (_east(alpaca, 0.0), round(HORIZON_DEG - 10.0 - (90.0 - alpaca.SiteLatitude), 3))  # 10 deg too low
+    # On the meridian over the horizon under the celestial equator, 10° too low.
+    low = (_east(alpaca, 0.0), round(alpaca.SiteLatitude - site.pole * (90.0 - (HORIZON_DEG - 10.0)), 3))
     indi.set("ON_COORD_SET.TRACK=On")
     indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={low[0]};{low[1]}")
     wait_until(lambda: indi.coords()[2] == "Alert", 20, "INDI to report the refusal")
@@ -163,8 +180,8 @@ def test_indi_goto_below_the_configured_horizon_is_refused(indi: IndiServer, alp
 
 
 def test_indi_guiding_moves_the_mount_as_alpaca_reads_it(indi: IndiServer, alpaca: AlpacaTelescope,
-                                                         server: AlpacaZwoServer) -> None:
-    alpaca.SlewToCoordinatesAsync(_east(alpaca, -2.0), 40.0)
+                                                         server: AlpacaZwoServer, site: Site) -> None:
+    alpaca.SlewToCoordinatesAsync(_east(alpaca, -2.0), site.dec(40.0))
     _slew_done(alpaca)
     rate_arcsec_s = alpaca.GuideRateDeclination * 3600.0  # INDI guides at the mount's guide rate
     # North for 1000 ms of INDI's (real) time: SPEED emulated seconds at the guide rate.

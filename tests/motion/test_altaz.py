@@ -30,6 +30,7 @@ from alpaca_zwo.web import CSRF_HEADER
 from alpaca_zwo.zwo.wire_values import MountMode
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
+from tests.support.sites import NORTH, SITE_IDS, SITES, Site
 
 SPEED = 8.0
 ARCSEC = 1.0 / 3600.0
@@ -40,6 +41,7 @@ class Rig:
     server: AlpacaZwoServer
     scope: AlpycaTelescope
     model: MountModel
+    site: Site = NORTH
 
     def sent_since(self, start: int) -> list[str]:
         return [entry.request for entry in self.server.telescopes[0].mount.link.trace()[start:]]
@@ -56,18 +58,29 @@ class Rig:
         wait_until(lambda: not self.scope.Slewing, 60, what, interval=0.05)
 
 
-def _rig(server_factory: ServerFactory, mode: str = "altaz", speed: float = SPEED, baud: int = 0) -> Rig:
-    server = server_factory(make_settings(emulator=EmulatorSettings(speed=speed, baud=baud, mode=mode)))
+def _rig(server_factory: ServerFactory, mode: str = "altaz", speed: float = SPEED, baud: int = 0,
+         site: Site = NORTH) -> Rig:
+    server = server_factory(make_settings(emulator=EmulatorSettings(speed=speed, baud=baud, mode=mode),
+                                          site=site.settings()))
     emulator = server.emulators[0]
     assert emulator is not None
     scope = AlpycaTelescope(f"127.0.0.1:{server.port}", 0)
     scope.Connected = True
-    return Rig(server, scope, emulator.model)
+    return Rig(server, scope, emulator.model, site)
 
 
 @pytest.fixture
 def rig(server_factory: ServerFactory) -> Iterator[Rig]:
     rig = _rig(server_factory)
+    yield rig
+    rig.scope.Connected = False
+
+
+@pytest.fixture(params=SITES, ids=SITE_IDS)
+def site_rig(request: pytest.FixtureRequest, server_factory: ServerFactory) -> Iterator[Rig]:
+    """The alt-az rig north of the equator, at Sydney and on it (issue 30); declinations toward the
+    elevated pole (``Site.dec``)."""
+    rig = _rig(server_factory, site=request.param)
     yield rig
     rig.scope.Connected = False
 
@@ -104,7 +117,7 @@ def test_alignment_mode_and_capabilities(rig: Rig) -> None:
 
 
 def _tracking_on_a_star(rig: Rig) -> None:
-    rig.scope.SlewToCoordinatesAsync(_ra_at_ha(rig.scope, -2.0), 30.0)
+    rig.scope.SlewToCoordinatesAsync(_ra_at_ha(rig.scope, -2.0), rig.site.dec(30.0))
     rig.wait_slew("the slew to end")
     assert rig.scope.Tracking is True
 
@@ -124,10 +137,12 @@ GUIDE_CASES = [  # direction, ms, expected (dRA seconds of time, dDec arcsec) at
 
 @pytest.mark.parametrize(("direction", "ms", "d_ra_s", "d_dec"), GUIDE_CASES)
 def test_pulse_guide_moves_the_sky_position_by_rate_times_duration(
-        rig: Rig, direction: GuideDirections, ms: int, d_ra_s: float, d_dec: float) -> None:
+        site_rig: Rig, direction: GuideDirections, ms: int, d_ra_s: float, d_dec: float) -> None:
     """The mount's :Mg does nothing in alt-az (PT, §2.5), so a pulse is a move at the guide speed that
     the server stops after the duration; the emulator's true position moved by guide rate x duration,
-    IsPulseGuiding was true for the pulse and false after, and no :Mg went out."""
+    IsPulseGuiding was true for the pulse and false after, and no :Mg went out. North is +Dec and east
+    +RA at every site."""
+    rig = site_rig
     _tracking_on_a_star(rig)
     assert rig.scope.GuideRateDeclination == pytest.approx(0.5 * sky.SIDEREAL_DEG_S, rel=1e-3)
     before, start, t0 = rig.model.position(), rig.trace_length(), rig.mount_seconds()
@@ -279,8 +294,9 @@ def test_meridian_settings_action_is_refused_in_altaz(rig: Rig) -> None:
 
 
 @pytest.mark.parametrize(("ha", "dec"), [(-3.0, 20.0), (2.0, 60.0), (-0.5, 10.0)])
-def test_slews_land_where_asked_and_track(rig: Rig, ha: float, dec: float) -> None:
-    scope = rig.scope
+def test_slews_land_where_asked_and_track(site_rig: Rig, ha: float, dec: float) -> None:
+    rig, scope = site_rig, site_rig.scope
+    dec = rig.site.dec(dec)
     ra = _ra_at_ha(scope, ha)
     scope.SlewToCoordinatesAsync(ra, dec)
     assert scope.Slewing
@@ -298,9 +314,9 @@ def test_slews_land_where_asked_and_track(rig: Rig, ha: float, dec: float) -> No
     assert scope.SideOfPier == PierSide.pierUnknown
 
 
-def test_tracking_keeps_ra_and_dec_fixed_while_the_axes_turn(rig: Rig) -> None:
-    scope = rig.scope
-    ra, dec = _ra_at_ha(scope, -2.0), 30.0
+def test_tracking_keeps_ra_and_dec_fixed_while_the_axes_turn(site_rig: Rig) -> None:
+    rig, scope = site_rig, site_rig.scope
+    ra, dec = _ra_at_ha(scope, -2.0), rig.site.dec(30.0)
     scope.SlewToCoordinatesAsync(ra, dec)
     rig.wait_slew("the slew to end")
     truth0, axes0, t0 = rig.model.position(), rig.model.axes(), rig.mount_seconds()
@@ -313,8 +329,8 @@ def test_tracking_keeps_ra_and_dec_fixed_while_the_axes_turn(rig: Rig) -> None:
     assert scope.Tracking is True
 
 
-def test_slew_to_alt_az_lands_on_that_altitude_and_azimuth(rig: Rig) -> None:
-    scope = rig.scope
+def test_slew_to_alt_az_lands_on_that_altitude_and_azimuth(site_rig: Rig) -> None:
+    rig, scope = site_rig, site_rig.scope
     scope.Tracking = False
     scope.SlewToAltAzAsync(135.0, 40.0)
     rig.wait_slew("the alt/az slew to end")
@@ -323,9 +339,9 @@ def test_slew_to_alt_az_lands_on_that_altitude_and_azimuth(rig: Rig) -> None:
     assert azimuth == pytest.approx(135.0, abs=0.02)
 
 
-def test_move_axis_moves_and_stops(rig: Rig) -> None:
-    scope = rig.scope
-    scope.SlewToCoordinatesAsync(_ra_at_ha(scope, -3.0), 20.0)
+def test_move_axis_moves_and_stops(site_rig: Rig) -> None:
+    rig, scope = site_rig, site_rig.scope
+    scope.SlewToCoordinatesAsync(_ra_at_ha(scope, -3.0), rig.site.dec(20.0))
     rig.wait_slew("the slew to end")
     before = rig.model.position()
     scope.MoveAxis(TelescopeAxes.axisSecondary, 0.5)

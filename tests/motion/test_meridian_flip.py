@@ -7,7 +7,10 @@ expects (HA >= 0: pierEast); ``SideOfPier = expected`` when CanSetPierSide, wait
 CanSetPierSide). Whatever it believes, the emulator's truth must show the mount through the pole on
 pierEast, pointing at the target, for the mount's meridian setting "track past 5°", "0°" and "off",
 and under both readings of how a GOTO chooses its side (docs/meridian.md). Then guide pulses must
-move the sky the commanded way on the new side.
+move the sky the commanded way on the new side. North of the equator for every setting, and at
+Sydney and on the equator (issue 30: the target's declination mirrored toward the elevated pole)
+for "track past 5°" under both readings and for "off", on a faster emulator clock (where the mount
+ends is judged, not timing).
 
 Before this change CanSetPierSide was false and the plain GOTO stayed on pierWest with "track past
 5°" (the mount only flips past its limit): the 5° cases failed on the emulator's pier letter.
@@ -28,9 +31,10 @@ from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.zwo.wire_values import MeridianSettings
 from tests.conftest import ServerFactory, make_settings
+from tests.support.sites import EQUATOR, NORTH, SYDNEY, Site
 from tests.support.wait import wait_until
 
-DEC = 30.0  # 68° up at the meridian from Greenwich
+DEC = 30.0  # toward the elevated pole: 68° up at the meridian from Greenwich, 86° from Sydney
 FLIP_HA = 0.02  # hours past the meridian when N.I.N.A. flips
 #: Emulated seconds per real second: the checks are of where the mount ends, not of timing.
 SPEED = 4.0
@@ -47,6 +51,11 @@ class Rig:
     scope: AlpycaTelescope
     model: MountModel
     flips_at_meridian: bool  # the emulator's GOTO side rule once the scene is set
+    site: Site = NORTH
+
+    @property
+    def dec(self) -> float:
+        return self.site.dec(DEC)
 
     def truth(self) -> dict[str, object]:
         state: dict[str, object] = self.model.snapshot()
@@ -56,18 +65,28 @@ class Rig:
         wait_until(lambda: not self.scope.Slewing, 120.0, what)
 
 
-@pytest.fixture(params=[(name, False) for name in SETTINGS] + [("track-past-5", True)],
-                ids=[*SETTINGS, "track-past-5-mount-flips-at-meridian"])
+CASES = [(NORTH, name, False) for name in SETTINGS] + [(NORTH, "track-past-5", True)] + [
+    (site, name, at_meridian) for site in (SYDNEY, EQUATOR)
+    for name, at_meridian in (("track-past-5", False), ("track-past-5", True), ("track-past-off", False))]
+
+
+def _case_id(case: tuple[Site, str, bool]) -> str:
+    site, name, at_meridian = case
+    return f"{site.name}-{name}{'-mount-flips-at-meridian' if at_meridian else ''}"
+
+
+@pytest.fixture(params=CASES, ids=[_case_id(case) for case in CASES])
 def rig(request: pytest.FixtureRequest, server_factory: ServerFactory) -> Iterator[Rig]:
-    track_past, limit = SETTINGS[request.param[0]]
-    settings = make_settings(emulator=EmulatorSettings(speed=SPEED, baud=0),
+    site, name, at_meridian = request.param
+    track_past, limit = SETTINGS[name]
+    settings = make_settings(site=site.settings(), emulator=EmulatorSettings(speed=site.speed(SPEED), baud=0),
                              limits=LimitSettings(meridian_track_past=track_past, meridian_limit_deg=limit))
     server = server_factory(settings)
     model = server.emulators[0].model
     assert model is not None
     scope = AlpycaTelescope(f"127.0.0.1:{server.port}", 0)
     scope.Connected = True
-    yield Rig(server, scope, model, request.param[1])
+    yield Rig(server, scope, model, at_meridian, site)
     scope.Connected = False
 
 
@@ -79,13 +98,14 @@ def _tracked_past_the_meridian(rig: Rig) -> tuple[float, float]:
     rig.model.flash.set_meridian(MeridianSettings(False, True, 5))
     target_ra = sky.wrap_hours_24(rig.scope.SiderealTime - FLIP_HA)
     rig.scope.Tracking = True
-    rig.scope.SlewToCoordinatesAsync(target_ra, DEC)
+    rig.scope.SlewToCoordinatesAsync(target_ra, rig.dec)
     rig.wait_at_rest("the slew to the target")
     rig.model.flash.set_meridian(configured)
-    rig.model.goto_flip_at_meridian = rig.flips_at_meridian
+    rig.model.firmware.goto_flip_at_meridian = rig.flips_at_meridian
     truth = rig.truth()
-    assert truth["pier"] == "W" and float(truth["secondary_deg"]) < 90.0, truth  # type: ignore[arg-type]
-    return target_ra, DEC
+    # pierWest: looking east, the Dec axis inside ±90° in the north and through the pole in the south.
+    assert truth["side"] == "WEST" and truth["through_pole"] is (rig.site.pole < 0), truth
+    return target_ra, rig.dec
 
 
 def _nina_meridian_flip(rig: Rig, target_ra: float, target_dec: float) -> bool:
@@ -126,8 +146,8 @@ def test_nina_flip_ends_on_the_other_side_and_guides_the_right_way(rig: Rig) -> 
     assert _nina_meridian_flip(rig, target_ra, target_dec), "N.I.N.A. would retry: the side check failed"
 
     truth = rig.truth()
-    assert truth["pier"] == "E", f"the mount did not flip: {truth['pier']} {truth['secondary_deg']}"
-    assert float(truth["secondary_deg"]) > 90.0, truth  # type: ignore[arg-type]  # Dec axis through the pole
+    assert truth["side"] == "EAST", f"the mount did not flip: {truth['pier']} {truth['secondary_deg']}"
+    assert truth["through_pole"] is (rig.site.pole > 0), truth  # the Dec axis swung through the pole
     separation = sky.angular_separation(float(truth["ra_h"]), float(truth["dec_deg"]),  # type: ignore[arg-type]
                                         target_ra, target_dec)
     assert separation * 3600 < 10.0, f"{separation * 3600:.1f}″ from the target after the flip"
@@ -145,7 +165,7 @@ def test_nina_flip_ends_on_the_other_side_and_guides_the_right_way(rig: Rig) -> 
         sign = east or north
         assert moved * sign > 5.0 and abs(other) < 2.0, \
             f"{direction.name} on pierEast moved the sky {d_east:+.1f}″ east, {d_north:+.1f}″ north"
-    assert rig.truth()["pier"] == "E"
+    assert rig.truth()["side"] == "EAST"
 
 
 def configured_meridian(rig: Rig) -> tuple[bool, int]:

@@ -22,14 +22,17 @@ from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient, wait_until
+from tests.support.sites import NORTH, SITE_IDS, SITES, Site
 
 SPEED = 4.0
 ARCSEC = 1.0 / 3600.0
 MAX_RATE = 1440 * SIDEREAL_DEG_S  # deg/s, the highest MoveAxis rate
 
 
-def _server(server_factory: ServerFactory, speed: float = SPEED, **sections: Any) -> AlpacaZwoServer:
-    return server_factory(make_settings(emulator=EmulatorSettings(speed=speed, baud=0), **sections))
+def _server(server_factory: ServerFactory, speed: float = SPEED, site: Site = NORTH,
+            **sections: Any) -> AlpacaZwoServer:
+    return server_factory(make_settings(emulator=EmulatorSettings(speed=speed, baud=0), site=site.settings(),
+                                        **sections))
 
 
 def _model(server: AlpacaZwoServer) -> MountModel:
@@ -65,10 +68,11 @@ def wrap12(hours: float) -> float:
 
 
 def _at_rest(model: MountModel) -> bool:
-    """No axis moves except the RA axis at the sidereal rate while tracking."""
+    """No axis moves except the RA axis at the sidereal rate while tracking (the other way round
+    south of the equator)."""
     v_ra, v_dec = model.snapshot()["velocity_deg_s"]
     tracking_rate = SIDEREAL_DEG_S if model.tracking_state()[0] else 0.0
-    return v_dec == 0.0 and abs(v_ra - tracking_rate) < 1e-9
+    return v_dec == 0.0 and abs(abs(v_ra) - tracking_rate) < 1e-9
 
 
 def _mount_seconds(server: AlpacaZwoServer) -> float:
@@ -136,11 +140,17 @@ ALTAZ_CASES = [  # (altitude, azimuth, tracking): short and long slews, east and
 ]
 
 
-@pytest.mark.parametrize(("alt", "az", "tracking"), ALTAZ_CASES)
-def test_alt_az_slews_land_within_five_arcseconds(server_factory: ServerFactory, alt: float, az: float,
+#: Where the users are (issue 30): every case north of the equator, two of them at Sydney and on it.
+ALTAZ_SITE_CASES = [(NORTH, *case) for case in ALTAZ_CASES] + [
+    (site, *case) for site in SITES[1:] for case in (ALTAZ_CASES[1], ALTAZ_CASES[4])]
+
+
+@pytest.mark.parametrize(("site", "alt", "az", "tracking"), ALTAZ_SITE_CASES,
+                         ids=[f"{c[0].name}-{c[1]:g}-{c[2]:g}-{c[3]}" for c in ALTAZ_SITE_CASES])
+def test_alt_az_slews_land_within_five_arcseconds(server_factory: ServerFactory, site: Site, alt: float, az: float,
                                                    tracking: bool) -> None:
     """Observation 2: the sky turns during the slew; the landing must still be within 5″ (goal 1″)."""
-    server = _server(server_factory)
+    server = _server(server_factory, site=site)
     api, model = _api(server), _model(server)
     api.ok("Tracking", Tracking=tracking)
     api.ok("SlewToAltAzAsync", Azimuth=az, Altitude=alt)
@@ -155,14 +165,17 @@ def test_alt_az_slews_land_within_five_arcseconds(server_factory: ServerFactory,
         assert error < 5.0, f"drifted to {error:.2f}″ from Alt {alt} Az {az} after landing"
 
 
+@pytest.mark.parametrize("site", SITES, ids=SITE_IDS)
 @pytest.mark.parametrize(("ha", "dec"), [(-2.0, 20.0), (1.5, 45.0), (-0.2, 80.0)])
-def test_coordinate_slews_land_within_one_arcsecond(server_factory: ServerFactory, ha: float, dec: float) -> None:
-    """The mount takes whole seconds of RA; the residual is guided away, so the landing is exact."""
-    server = _server(server_factory)
+def test_coordinate_slews_land_within_one_arcsecond(server_factory: ServerFactory, site: Site, ha: float,
+                                                    dec: float) -> None:
+    """The mount takes whole seconds of RA; the residual is guided away, so the landing is exact. The
+    declinations point toward the site's elevated pole."""
+    server = _server(server_factory, site=site)
     api, model = _api(server), _model(server)
     api.ok("Tracking", Tracking=True)
     ra = (api.ra_at_ha(ha) + 0.37 / 3600.0) % 24.0  # deliberately between whole seconds
-    dec = dec + 0.43 * ARCSEC
+    dec = site.dec(dec + 0.43 * ARCSEC)
     api.ok("SlewToCoordinatesAsync", RightAscension=ra, Declination=dec)
     wait_until(lambda: api.value("Slewing") is False, 60, "the slew to end")
     error = _sky_error_arcsec(model.position(), (ra, dec))
@@ -171,10 +184,12 @@ def test_coordinate_slews_land_within_one_arcsecond(server_factory: ServerFactor
     assert _sky_error_arcsec(served, (ra, dec)) < 1.0
 
 
-def test_custom_park_position_is_reached_exactly(server_factory: ServerFactory) -> None:
+@pytest.mark.parametrize("site", SITES, ids=SITE_IDS)
+def test_custom_park_position_is_reached_exactly(server_factory: ServerFactory, site: Site) -> None:
     from alpaca_zwo.config.settings import ParkSettings
 
-    server = _server(server_factory, park=ParkSettings(mode="custom", ha_hours=-1.25, dec_deg=30.0))
+    park_dec = site.dec(30.0)
+    server = _server(server_factory, site=site, park=ParkSettings(mode="custom", ha_hours=-1.25, dec_deg=park_dec))
     api, model = _api(server), _model(server)
     api.ok("Park")
     wait_until(lambda: api.value("AtPark") is True, 60, "AtPark")
@@ -183,7 +198,7 @@ def test_custom_park_position_is_reached_exactly(server_factory: ServerFactory) 
     ra, dec = model.position()
     ha = wrap12(api.value("SiderealTime") - ra)
     assert abs(ha - (-1.25)) * 15 * 3600 * math.cos(math.radians(dec)) < 5.0
-    assert abs(dec - 30.0) * 3600 < 5.0
+    assert abs(dec - park_dec) * 3600 < 5.0
 
 
 # -- 3. An abort is never overtaken ---------------------------------------------------------------
@@ -305,15 +320,16 @@ def test_sync_reads_back_the_synced_position_whatever_the_poll_was_doing(server_
 # -- braking-aware limits -------------------------------------------------------------------------
 
 
-def test_moveaxis_at_full_rate_stops_before_the_altitude_limit(server_factory: ServerFactory) -> None:
+@pytest.mark.parametrize("site", SITES, ids=SITE_IDS)
+def test_moveaxis_at_full_rate_stops_before_the_altitude_limit(server_factory: ServerFactory, site: Site) -> None:
     floor = 25.0
-    server = _server(server_factory, limits=LimitSettings(min_altitude_deg=floor))
+    server = _server(server_factory, site=site, limits=LimitSettings(min_altitude_deg=floor))
     api, model = _api(server), _model(server)
     api.ok("Tracking", Tracking=True)
-    api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-3.0), Declination=20.0)
+    api.ok("SlewToCoordinatesAsync", RightAscension=api.ra_at_ha(-3.0), Declination=site.dec(20.0))
     wait_until(lambda: api.value("Slewing") is False, 60, "the set-up slew")
     assert model.horizontal()[0] > floor + 10.0
-    api.ok("MoveAxis", Axis=1, Rate=-MAX_RATE)  # south: down toward the horizon
+    api.ok("MoveAxis", Axis=1, Rate=-site.pole * MAX_RATE)  # away from the pole: down toward the horizon
     lowest = 90.0
     deadline = time.monotonic() + 60
     while api.value("Slewing") and time.monotonic() < deadline:

@@ -38,10 +38,10 @@ def client(base_url: str) -> Client:
     return Client(base_url)
 
 
-def _longitude_putting(obj: objects.SkyObject, ha_hours: float = -1.5) -> float:
-    """The east longitude where ``obj`` stands ``ha_hours`` from the meridian now."""
+def _longitude_putting(obj: objects.SkyObject, ha_hours: float = -1.5, latitude: float = LATITUDE) -> float:
+    """The east longitude where ``obj`` stands ``ha_hours`` from the meridian now, at ``latitude``."""
     now = datetime.now(timezone.utc)
-    place = objects.apparent(obj, objects.Site(LATITUDE, 0.0, 0.0), now)
+    place = objects.apparent(obj, objects.Site(latitude, 0.0, 0.0), now)
     gmst = sky.local_sidereal_time(now, 0.0)
     return (((place.ra_hours + ha_hours - gmst) * 15.0 + 180.0) % 360.0) - 180.0
 
