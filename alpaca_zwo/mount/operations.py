@@ -199,7 +199,7 @@ class Mount:
 
     def lst(self) -> float:
         """Local sidereal time now, by the clock the mount was given and the site it holds."""
-        return sky.local_sidereal_time(self.clock() + self.clock_offset, self.site()[1])
+        return sky.local_sidereal_time(self.time.now(), self.site()[1])
 
     def mechanical_hour_angle(self, ra: float) -> float:
         """The hour angle the mount's axes point at (or will) for a client-frame RA: the sync
