@@ -41,6 +41,7 @@ from ..config.settings import DeviceSettings, Settings
 from ..config.store import SettingsStore
 from ..motion import Motion, MotionKind, MotionSupervisor
 from ..motion.flip import PierFlips, side_setting
+from ..motion.interlock import Interlock
 from ..mount.operations import Mount
 from ..mount.state import MountState
 from ..sky import PierSide
@@ -88,6 +89,7 @@ class Telescope:
         clock: Callable[[], datetime] | None = None,
         linger_s: float = LINGER_S,
         link_grace_s: float = LINK_GRACE_S,
+        interlock: Interlock | None = None,
     ) -> None:
         self.mount = mount
         self.store = store
@@ -99,7 +101,7 @@ class Telescope:
         self._settle_s = 0
         self._utc_offset = timedelta(0)
         self.motion = MotionSupervisor(mount, lambda: self.store.settings, self._lst, self.registry,
-                                       name=f"motion-{device_index}")
+                                       name=f"motion-{device_index}", interlock=interlock)
         self.connection = Connection(mount=mount, motion=self.motion, settings=lambda: self.store.settings,
                                      linger_s=linger_s, link_grace_s=link_grace_s)
         self.caps = Capabilities(mount=mount, store=store, motion=self.motion,
@@ -323,7 +325,7 @@ class Telescope:
             self._require_unparked("Tracking=true")
         try:
             with mount_errors("setting tracking"):
-                self.mount.set_tracking(value)
+                self.motion.set_tracking(value)  # on is a start: the observatory interlock admits it
         except DriverError as exc:
             self.mount.refresh()
             reason = self.mount.state.tracking.reason if self.mount.state.tracking else ""
@@ -613,7 +615,7 @@ class Telescope:
 
     def unpark(self) -> None:
         self.connection.require_connected()
-        self.motion.parked = False
+        self.motion.unpark()
 
     def set_park(self) -> None:
         ra, dec = self._position()
