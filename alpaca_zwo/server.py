@@ -24,7 +24,9 @@ from .clients import ClientRegistry
 from .config.settings import DeviceSettings, Settings
 from .config.store import SettingsStore
 from .facade import ServerFacade
+from .motion.interlock import Interlock
 from .mount.operations import Mount, utc_now
+from .observatory import Responder, SafetyWatch
 from .telescope.device import Telescope
 from .zwo.link import Link
 
@@ -87,6 +89,11 @@ class AlpacaZwoServer:
         self.advertiser: Any = None
         self.stellarium: Any = None  # bridges.stellarium.StellariumBridge when [stellarium] is on
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
+        #: The observatory interlock (README, *Observatory*): one gate for every telescope, the watch that
+        #: polls the SafetyMonitor and roof into it, and the responder that parks or stops the mounts.
+        self.interlock = Interlock()
+        self.safety_watch: SafetyWatch | None = None
+        self.safety_responder: Responder | None = None
         self._extra_routes_factory = extra_routes_factory
         self._facade: ServerFacade | None = None
         #: The DNS-rebinding guard; follows server.allowed_hosts live (no restart).
@@ -136,7 +143,9 @@ class AlpacaZwoServer:
             self.emulators.append(emulator)
             link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)
             mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate)
-            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry, clock=clock))
+            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry, clock=clock,
+                                             interlock=self.interlock))
+        self._start_safety_watch()  # before HTTP serves: a configured monitor refuses motion until it answers
 
         server = settings.server
         info = ServerInfo(server_name="alpaca-zwo", manufacturer="alpaca-zwo project",
@@ -180,6 +189,17 @@ class AlpacaZwoServer:
             except OSError as exc:  # no multicast route: the API works without the advertisement
                 log.error("mDNS advertisement failed: %s", exc)
                 self.advertiser = None
+
+    def _start_safety_watch(self) -> None:
+        responder = Responder(self.telescopes, self.interlock, lambda: self.settings, self._record_safety)
+        self.safety_responder = responder
+        self.safety_watch = SafetyWatch(self.store, self.interlock, on_change=responder.verdict_changed)
+        responder.start()
+        self.safety_watch.start()
+
+    def _record_safety(self, kind: str, text: str) -> None:
+        if self.safety_watch is not None:
+            self.safety_watch.record(kind, text)
 
     def _start_zwo_port(self) -> None:
         """The shared ZWO-protocol TCP port for INDI and other ZWO/LX200 drivers, bound to Telescope 0."""
@@ -247,10 +267,11 @@ class AlpacaZwoServer:
             return
         self._stopped.set()
         on_shutdown = self.settings.safety.on_shutdown
-        if self.stellarium is not None:
-            self.stellarium.stop()  # before the telescopes: Stellarium must not start a goto now
-        if self.zwo_port is not None:
-            self.zwo_port.stop()  # before the telescopes: no program may start motion during shutdown
+        # Before the telescopes: no program may start motion during shutdown (Stellarium a goto, the ZWO
+        # port anything), and the safety responder must not connect a mount then.
+        for part in (self.stellarium, self.zwo_port, self.safety_watch, self.safety_responder):
+            if part is not None:
+                part.stop()
         for telescope in self.telescopes:
             telescope.shutdown(park=on_shutdown == "park")
         if self.advertiser is not None:
