@@ -381,3 +381,29 @@ def test_page_refuses_motion_and_shows_the_state(rig_factory: RigFactory, sims: 
     assert view["state"] == "unsafe" and view["monitor"]["answer"] == "IsSafe=false", view
     assert 0.0 <= view["monitor"]["age_s"] < 2.0 and view["monitor"]["url"] == sims.monitor_url, view
     assert rig.snapshot()["moves_deg_s"] == [None, None]
+
+
+def test_stellarium_goto_is_refused(rig_factory: RigFactory, sims: AlpacaSimulators) -> None:
+    """Stellarium's goto goes through the same gate: refused (its protocol has no reply; the page's bridge
+    table shows why), nothing sent to the mount."""
+    from alpaca_zwo.config.settings import StellariumSettings
+    from tests.bridges.stellarium_client import StellariumClient
+
+    rig = rig_factory(safety=interlock(sims, on_unsafe="nothing"),
+                      stellarium=StellariumSettings(enabled=True, host="127.0.0.1", port=0, equinox="JNow"))
+    main = rig.clients[0]
+    wait_state(main, "safe")
+    sims.set_safe(False)
+    wait_state(main, "unsafe")
+    before = len(rig.recorder.all())
+    stellarium = StellariumClient(rig.server.stellarium.port)
+    try:
+        stellarium.read_position()
+        stellarium.goto((main.value("siderealtime") + 1.0) % 24.0, 30.0)
+        wait_until(lambda: (rig.server.stellarium.status()["last_error"] or {}).get("message", ""), 10,
+                   "the bridge to record the refusal")
+    finally:
+        stellarium.close()
+    message = rig.server.stellarium.status()["last_error"]["message"]
+    assert "goto refused" in message and "safety monitor" in message, message
+    assert not motion_sent(rig, before), motion_sent(rig, before)
