@@ -151,7 +151,9 @@ def test_unsafe_refuses_every_motion_member_and_allows_the_rest(rig_factory: Rig
     verdict.check(rig.snapshot()["slew"] is None and rig.snapshot()["moves_deg_s"] == [None, None],
                   "something moves after the refusals")
     for name, args in STOPS:
+        before = len(rig.recorder.all())
         call = main.put(name.lower(), **args)
+        verdict.check(not motion_sent(rig, before), f"{name} {args} sent {motion_sent(rig, before)} to the mount")
         verdict.check(call.ok, f"{name} {args} refused while unsafe: {call.describe()}")
     for name, must_succeed in ALLOWED.items():
         args = args_for("PUT", name)
@@ -161,8 +163,11 @@ def test_unsafe_refuses_every_motion_member_and_allows_the_rest(rig_factory: Rig
             args = {"Connected": True}
         if name in ("SyncToCoordinates", "SyncToTarget"):
             continue  # below, with tracking on as a sync needs
+        before = len(rig.recorder.all())
         call = main.put(name.lower(), **args)
         verdict.check(not refused_by_interlock(call), f"{name} refused by the interlock: {call.describe()}")
+        if name != "Park":  # an allowed member moves nothing (a motion member put here by mistake fails)
+            verdict.check(not motion_sent(rig, before), f"{name} sent {motion_sent(rig, before)} to the mount")
         if must_succeed:
             verdict.check(call.ok, f"{name} failed while unsafe: {call.describe()}")
         if name == "Park":
