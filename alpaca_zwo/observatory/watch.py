@@ -89,6 +89,7 @@ class SafetyWatch:
         self._on_change = on_change
         self.client_id = random.randint(1, 65535)  # one ClientID for this server's reads of the devices
         self._lock = threading.Lock()  # guards the readings, the events and the configuration in use
+        self._publish_lock = threading.Lock()  # one verdict change at a time (the poller, a settings change)
         self._readings: list[Reading] = []
         self._config: tuple[str, str] = ("", "")
         self._started = time.monotonic()
@@ -98,9 +99,7 @@ class SafetyWatch:
         self._thread: threading.Thread | None = None
         store.subscribe(self._settings_changed)
         self._configure(store.settings.safety)
-        with self._lock:
-            readings = list(self._readings)
-        self._publish(readings, store.settings.safety)  # configured: unknown (motion refused) from now on
+        self._publish(store.settings.safety)  # configured: unknown (motion refused) from now on
 
     # -- life ------------------------------------------------------------------------------------
 
@@ -115,6 +114,9 @@ class SafetyWatch:
             self._thread.join(timeout=10)
 
     def _settings_changed(self, settings: Settings) -> None:
+        """New devices take effect before the change returns: motion is refused from then until they answer."""
+        if self._configure(settings.safety):
+            self._publish(settings.safety)
         self._wake.set()
 
     def _configure(self, safety: SafetySettings) -> bool:
@@ -152,7 +154,7 @@ class SafetyWatch:
         timeout = min(5.0, max(0.5, safety.unreachable_s / 3.0))
         for reading in readings:
             self._read(reading, timeout)
-        return self._publish(readings, safety)
+        return self._publish(safety)
 
     def _read(self, reading: Reading, timeout: float) -> None:
         device = RemoteDevice(reading.url, client_id=self.client_id, timeout=timeout)
@@ -210,7 +212,14 @@ class SafetyWatch:
                     return state, reading.url, reason
         return SafetyState.SAFE, readings[0].url, ", ".join(r.answer for r in readings)
 
-    def _publish(self, readings: list[Reading], safety: SafetySettings) -> Verdict:
+    def _publish(self, safety: SafetySettings) -> Verdict:
+        """The verdict from the devices configured now (a round polled for replaced ones counts for nothing)."""
+        with self._publish_lock:
+            with self._lock:
+                readings = list(self._readings)
+            return self._publish_locked(readings, safety)
+
+    def _publish_locked(self, readings: list[Reading], safety: SafetySettings) -> Verdict:
         state, source, reason = self._verdict(readings)
         previous = self.interlock.verdict
         since = previous.since if previous.state is state else (None if state is SafetyState.OFF else _utc_now())
