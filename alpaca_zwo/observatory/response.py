@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 #: The client the responder connects a mount as, when no one holds it.
 INTERLOCK_CLIENT = ClientKey("safety-interlock", 0)
 RETRY_MIN_S = 2.0
+TICK_S = 1.0
 
 
 class Responder:
@@ -78,20 +79,13 @@ class Responder:
             self._episode += 1
         self._wake.set()
 
-    def _owed(self) -> bool:
-        return (self.interlock.verdict.state is SafetyState.UNSAFE
-                and self._settings().safety.on_unsafe != "nothing"
-                and any(self._handled.get(i) != self._episode for i in range(len(self.telescopes))))
-
     def _run(self) -> None:
         while not self._stopped.is_set():
             try:
                 self.tick()
             except Exception:  # must outlive any bug: the next tick tries again
                 log.exception("safety response failed")
-            retry_s = max(self._settings().safety.poll_s, RETRY_MIN_S)
-            busy = self._owed() or bool(self._attached)
-            self._wake.wait(min(retry_s, 1.0) if busy else None)
+            self._wake.wait(TICK_S)  # a tick with nothing owed costs no I/O; on_unsafe may change any time
             self._wake.clear()
 
     def tick(self) -> None:
