@@ -252,6 +252,23 @@ def test_stop_mode_ends_moves_pulses_and_offsets(rig_factory: RigFactory, sims: 
     assert still(rig), rig.snapshot()  # and nothing starts again (offsets are not paid without tracking)
 
 
+def test_a_long_pulse_is_cut_short(rig_factory: RigFactory, sims: AlpacaSimulators) -> None:
+    """A 20 s PulseGuide (sent in 3 s chunks) runs when it turns unsafe: the server ends it at once (no further
+    chunk), IsPulseGuiding drops, and the mount is parked with tracking off."""
+    rig = rig_factory(safety=interlock(sims), emulator=FAST)
+    main = rig.clients[0]
+    wait_state(main, "safe")
+    main.command("tracking", Tracking=True)
+    main.command("pulseguide", Direction=0, Duration=20000)
+    wait_until(lambda: any(rig.snapshot()["pulses"]), 5, "the pulse to start")
+    started = time.monotonic()
+    sims.set_safe(False)
+    wait_until(lambda: main.value("ispulseguiding") is False, 5, "the pulse to end")
+    assert time.monotonic() - started < 5.0  # not its 20 s
+    wait_until(lambda: main.value("atpark") is True, 60, "the park")
+    assert still(rig) and rig.snapshot()["pulses"] == [None, None], rig.snapshot()
+
+
 def test_roof_must_be_open(rig_factory: RigFactory, sims: AlpacaSimulators) -> None:
     """With a roof configured, its closed shutter (the simulator starts closed) refuses motion; opened, it
     allows it; closed during a MoveAxis, the server parks."""
