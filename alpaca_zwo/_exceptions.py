@@ -120,6 +120,12 @@ class InvalidOperation(AlpacaError):
     number = 0x40B
 
 
+class SafetyRefusal(InvalidOperation):
+    """A motion refused because the observatory's safety monitor (or roof) says it is not safe (ASCOM 0x40B).
+
+    A subclass so that the bridges can answer it as the mount answers a refusal, distinct from "busy"."""
+
+
 class ActionNotImplemented(AlpacaError):
     """Raised when Action() names an action this driver does not support (ASCOM 0x40C)."""
 

@@ -76,12 +76,22 @@ class AlpacaZwoServer(Protocol):
     def settings(self) -> Settings: ...
 
     @property
+    def safety_watch(self) -> SafetyStatusSource | None: ...  # the observatory interlock (observatory/watch.py)
+
+    @property
     def port(self) -> int: ...
 
     @property
     def emulators(self) -> Sequence[object | None]: ...
 
     def bridges(self) -> Mapping[str, StatusSource]: ...
+
+
+class SafetyStatusSource(Protocol):
+    """The observatory interlock's watch as the page sees it: the verdict, the devices' last answers and
+    their ages, the recent events (``observatory.SafetyWatch.status``)."""
+
+    def status(self) -> dict[str, Any]: ...
 
 
 class FacadeProvider(Protocol):
@@ -469,6 +479,24 @@ class ServerFacade:
         gpsd = self._server.gpsd
         return dict(gpsd.status()) if gpsd is not None else None
 
+    def safety(self) -> dict[str, Any]:
+        """The observatory interlock: ``{"safe", "source", "since", "state", "reason", "message", "on_unsafe",
+        "monitor", "roof", "events", …}`` (safe and off when no monitor is configured)."""
+        watch = self._server.safety_watch
+        if watch is None:
+            return {"safe": True, "state": "off", "source": "", "since": None, "reason": "", "monitor": None,
+                    "roof": None, "events": []}
+        return watch.status()
+
+    def find_safety_devices(self, host: str = "") -> list[dict[str, Any]]:
+        """Alpaca discovery (a broadcast on this machine's IPv4 networks, or a query to ``host`` only), then
+        each server's SafetyMonitor and Dome devices. Sends traffic: only when the user asks (the page's button)."""
+        import dataclasses
+
+        from .alpaca.finder import find_devices
+
+        return [dataclasses.asdict(server) for server in find_devices(host)]
+
     def bridges(self) -> list[dict[str, Any]]:
         """One status dict per running bridge, each with its ``name``; a failing status() shows its error."""
         rows = []
@@ -502,6 +530,7 @@ __all__ = [
     "MountState",
     "ParkSettings",
     "ProtocolError",
+    "SafetyStatusSource",
     "ServerFacade",
     "Settings",
     "SettingsNotSaved",

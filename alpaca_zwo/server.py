@@ -24,9 +24,11 @@ from .clients import ClientRegistry
 from .config.settings import DeviceSettings, Settings
 from .config.store import SettingsStore
 from .facade import ServerFacade
+from .motion.interlock import Interlock
 from .mount.host_clock import HostClockWatch
 from .mount.operations import Mount, utc_now
 from .mount.timekeeping import TimeKeeper
+from .observatory import Responder, SafetyWatch
 from .telescope.device import Telescope
 from .zwo.link import Link
 
@@ -89,6 +91,11 @@ class AlpacaZwoServer:
         self.advertiser: Any = None
         self.stellarium: Any = None  # bridges.stellarium.StellariumBridge when [stellarium] is on
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
+        #: The observatory interlock (README, *Observatory*): one gate for every telescope, the watch that
+        #: polls the SafetyMonitor and roof into it, and the responder that parks or stops the mounts.
+        self.interlock = Interlock()
+        self.safety_watch: SafetyWatch | None = None
+        self.safety_responder: Responder | None = None
         self._extra_routes_factory = extra_routes_factory
         self._facade: ServerFacade | None = None
         #: Is this computer's clock synchronised? Read by every mount's time reference (mount/timekeeping.py).
@@ -143,7 +150,9 @@ class AlpacaZwoServer:
             keeper = TimeKeeper(clock, monotonic, watch=self.host_clock, policy=lambda: self.settings.time.source)
             mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate,
                           time_keeper=keeper)
-            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry))
+            self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry,
+                                             interlock=self.interlock))
+        self._start_safety_watch()  # before HTTP serves: a configured monitor refuses motion until it answers
 
         server = settings.server
         info = ServerInfo(server_name="alpaca-zwo", manufacturer="alpaca-zwo project",
@@ -188,6 +197,17 @@ class AlpacaZwoServer:
             except OSError as exc:  # no multicast route: the API works without the advertisement
                 log.error("mDNS advertisement failed: %s", exc)
                 self.advertiser = None
+
+    def _start_safety_watch(self) -> None:
+        responder = Responder(self.telescopes, self.interlock, lambda: self.settings, self._record_safety)
+        self.safety_responder = responder
+        self.safety_watch = SafetyWatch(self.store, self.interlock, on_change=responder.verdict_changed)
+        responder.start()
+        self.safety_watch.start()
+
+    def _record_safety(self, kind: str, text: str) -> None:
+        if self.safety_watch is not None:
+            self.safety_watch.record(kind, text)
 
     def _start_zwo_port(self) -> None:
         """The shared ZWO-protocol TCP port for INDI and other ZWO/LX200 drivers, bound to Telescope 0."""
@@ -264,10 +284,11 @@ class AlpacaZwoServer:
             return
         self._stopped.set()
         on_shutdown = self.settings.safety.on_shutdown
-        # Before the telescopes: no program may start motion, and no site may be pushed, during shutdown.
-        for front in (self.stellarium, self.zwo_port, self.gpsd):
-            if front is not None:
-                front.stop()
+        # Before the telescopes: no program may start motion during shutdown (Stellarium a goto, the ZWO
+        # port anything), no site may be pushed, and the safety responder must not connect a mount then.
+        for part in (self.stellarium, self.zwo_port, self.gpsd, self.safety_watch, self.safety_responder):
+            if part is not None:
+                part.stop()
         for telescope in self.telescopes:
             telescope.shutdown(park=on_shutdown == "park")
         if self.advertiser is not None:

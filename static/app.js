@@ -442,6 +442,7 @@
     renderControls(s);
     renderClients(s.clients);
     renderBridges(s.bridges || []);
+    renderSafety(s.safety);
     drawSky(s);
   }
 
@@ -737,6 +738,11 @@
     $("h-profile").value = s.limits.horizon.map((p) => p[0] + " " + p[1]).join("\n");
     $("s-watchdog").value = s.safety.moveaxis_watchdog_s;
     $("s-shutdown").value = s.safety.on_shutdown;
+    $("o-monitor").value = s.safety.monitor;
+    $("o-roof").value = s.safety.roof;
+    $("o-poll").value = s.safety.poll_s;
+    $("o-unreachable").value = s.safety.unreachable_s;
+    $("o-on-unsafe").value = s.safety.on_unsafe;
     $("d-name").value = s.device.name;
     $("d-url").value = s.device.url;
     const m = s.mount;
@@ -806,6 +812,65 @@
     };
   }
 
+  // The observatory interlock: the verdict in the status list, the last answers and events by the form.
+  function renderSafety(safety) {
+    if (!safety) return;
+    const names = { off: "off (no monitor)", unknown: "waiting for the monitor", safe: "safe", unsafe: "UNSAFE: motion refused" };
+    setText("safety", names[safety.state] || safety.state, safety.state === "unsafe" ? "bad" : safety.state === "safe" ? "yes" : "");
+    const parts = [];
+    for (const role of ["monitor", "roof"]) {
+      const d = safety[role];
+      if (!d) continue;
+      let line = (role === "monitor" ? "Monitor: " : "Roof: ") + (d.answer || "no answer yet");
+      if (d.age_s !== null) line += ", " + fmtDuration(d.age_s) + " ago";
+      if (d.error) line += " (last try: " + d.error + ")";
+      parts.push(line);
+    }
+    setText("o-state", (safety.message || "") + (parts.length ? ". " + parts.join(". ") + "." : ""),
+      safety.state === "unsafe" ? "small bad" : "small");
+    const events = $("o-events");
+    events.replaceChildren();
+    for (const e of (safety.events || []).slice(-5)) {
+      const li = document.createElement("li");
+      li.textContent = e.time.replace("T", " ").replace(/\.\d+\+00:00$/, " UTC") + ": " + e.text;
+      events.append(li);
+    }
+  }
+
+  async function findSafetyDevices() {
+    const list = $("o-found");
+    list.replaceChildren();
+    const result = await run("Discovery done.", () => post("/setup/api/safety/discover", { host: $("o-host").value.trim() }), true);
+    if (!result) return;
+    if (!result.servers.length) {
+      const li = document.createElement("li");
+      li.textContent = "No Alpaca server answered.";
+      list.append(li);
+    }
+    for (const server of result.servers) {
+      const li = document.createElement("li");
+      li.textContent = (server.name || "Alpaca server") + " at " + server.address +
+        (server.devices.length ? "" : ": no SafetyMonitor or Dome") + (server.error ? " (" + server.error + ")" : "");
+      const sub = document.createElement("ul");
+      for (const device of server.devices) {
+        const item = document.createElement("li");
+        item.textContent = device.type + " " + device.number + " “" + device.name + "” ";
+        const use = document.createElement("button");
+        use.type = "button";
+        use.className = "ghost";
+        use.textContent = device.type === "Dome" ? "Use as roof" : "Use as monitor";
+        use.addEventListener("click", () => {
+          $(device.type === "Dome" ? "o-roof" : "o-monitor").value = device.url;
+          message("Filled in; press Save to use it.", "info");
+        });
+        item.append(use);
+        sub.append(item);
+      }
+      li.append(sub);
+      list.append(li);
+    }
+  }
+
   function bindSettings() {
     $("form-site").addEventListener("submit", saveSettings("Site saved and sent to the mount.", () => ({
       site: { latitude: num("site-lat"), longitude: num("site-lon"), elevation: num("site-elev") },
@@ -830,6 +895,11 @@
     $("form-safety").addEventListener("submit", saveSettings("Safety settings saved.", () => ({
       safety: { moveaxis_watchdog_s: num("s-watchdog"), on_shutdown: $("s-shutdown").value },
     })));
+    $("form-observatory").addEventListener("submit", saveSettings("Observatory settings saved.", () => ({
+      safety: { monitor: $("o-monitor").value.trim(), roof: $("o-roof").value.trim(), poll_s: num("o-poll"),
+                unreachable_s: num("o-unreachable"), on_unsafe: $("o-on-unsafe").value },
+    })));
+    $("btn-find-devices").addEventListener("click", findSafetyDevices);
     $("form-device").addEventListener("submit", saveSettings("Device name saved.", () => ({
       device: { name: $("d-name").value.trim() },
     })));

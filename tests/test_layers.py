@@ -28,10 +28,11 @@ ALLOWED: dict[str, set[str]] = {
     "motion": {"mount", "config", "zwo", "clients", "sky"},
     "telescope": {"motion", "mount", "config", "zwo", "clients", "sky"},
     "bridges": {"telescope", "mount", "config", "zwo", "clients", "sky"},
+    "observatory": {"telescope", "motion", "config", "alpaca", "clients"},
     "facade": {"telescope", "motion", "mount", "config", "zwo", "alpaca", "clients", "sky"},
     "web": {"facade"},
-    "server": {"facade", "web", "bridges", "telescope", "motion", "mount", "config", "zwo", "alpaca", "emulator",
-               "clients", "sky", "service"},
+    "server": {"facade", "web", "bridges", "observatory", "telescope", "motion", "mount", "config", "zwo", "alpaca",
+               "emulator", "clients", "sky", "service"},
     "cli": {"server", "web", "config", "zwo", "alpaca", "emulator", "service", "clients", "sky"},
     "__main__": {"cli"},
 }

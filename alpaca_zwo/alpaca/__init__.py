@@ -3,8 +3,10 @@
 Owns the falcon app and the member table, strict parameters, rendering, waitress with its
 per-address connection limit, UDP discovery (32227), the mDNS advertiser, the DNS-rebinding host
 guard, and how clients reach this machine (``listen_check``: can we listen on a host and port;
-``local_addresses``: this machine's LAN addresses for the start banner). It knows Alpaca and nothing
-of ZWO: a device is anything implementing :class:`AlpacaDevice`.
+``local_addresses``: this machine's LAN addresses for the start banner). Also the other way round, as a
+client of other Alpaca devices: ``remote`` (reading a SafetyMonitor or a Dome) and ``finder`` (discovering
+them for the setup page). It knows Alpaca and nothing of ZWO: a device is anything implementing
+:class:`AlpacaDevice`.
 
 May import only ``clients`` and ``_exceptions``.
 """

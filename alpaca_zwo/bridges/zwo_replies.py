@@ -16,7 +16,8 @@ configured horizon profile or below altitude 0 is ``e5#``, under ``min_altitude_
 GOTO while a GOTO, home or park runs ``e3#`` (as the mount; INDI sends ``:Q#`` first), but a GOTO
 while the axes still brake from a stop is accepted and queued behind the braking (the mount would
 answer ``e3#``; the server does better, see the README's ZWO-port section); parked
-``e4#`` (the emulator's guess, no published code); a sync while moving ``e4#``, and a sync the
+``e4#`` (the emulator's guess, no published code), and so is a GOTO the observatory interlock refuses
+(the safety monitor says unsafe; ``:Spu#`` and ``:Te#`` then answer ``0``); a sync while moving ``e4#``, and a sync the
 server refuses otherwise (not tracking) ``e11#``; a lost mount link gets no reply, as from a mount
 that is not there.
 """
@@ -40,6 +41,7 @@ from .._exceptions import (
     MountReplyError,
     Parked,
     ProtocolError,
+    SafetyRefusal,
 )
 from ..config.settings import ZWO_PORT_DANGEROUS, horizon_altitude_at
 from ..mount.state import MountSettings
@@ -304,7 +306,7 @@ class ZwoResponder:
             raise Refusal("e3#", "a GOTO, home or park is already running")
         try:
             self.telescope.slew_to_coordinates_async(ra, dec)
-        except Parked as exc:
+        except (Parked, SafetyRefusal) as exc:  # the mount's "not now" (parked, or the safety monitor says no)
             raise Refusal("e4#", exc.message) from exc
         except InvalidValue as exc:
             raise Refusal(f"e{self._limit_code(ra, dec)}#", exc.message) from exc
@@ -437,7 +439,10 @@ class ZwoResponder:
 
     def _unpark(self, _session: Session, _argument: str, _well_formed: bool) -> str:
         was_parked = self.telescope.at_park()
-        self.telescope.unpark()
+        try:
+            self.telescope.unpark()
+        except SafetyRefusal as exc:  # the safety monitor says unsafe: the mount's refusal, 0
+            raise Refusal("0", exc.message) from exc
         return char_reply(was_parked)
 
     def _silently(self, action: Callable[[], object]) -> Handler:

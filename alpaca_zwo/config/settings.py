@@ -18,6 +18,7 @@ import itertools
 import math
 import os
 import re
+import urllib.parse
 import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -218,6 +219,42 @@ def _host_port(value: Any) -> str:
     return text
 
 
+def _device_url(device_type: str) -> Check:
+    """An Alpaca device's URL, ``http(s)://host[:port]/api/v1/<device_type>/<number>``, or "" (none).
+
+    Stored in the canonical spelling (lower-case scheme and device type, no trailing slash), so the
+    page shows what the server will poll. A user name or password in the URL is refused: it would be
+    shown on the page and in the log."""
+    path = re.compile(rf"/api/v1/{device_type}/(\d{{1,4}})/?", re.IGNORECASE)
+
+    def check(value: Any) -> str:
+        if not isinstance(value, str):
+            raise _Invalid(f"must be a string, not {_kind(value)}")
+        text = value.strip()
+        if not text:
+            return ""
+        example = f"http://192.168.1.30:11111/api/v1/{device_type}/0"
+        parts = urllib.parse.urlsplit(text)
+        if parts.scheme.lower() not in ("http", "https") or not parts.netloc:
+            raise _Invalid(f"must be an http:// or https:// URL of an Alpaca {device_type} such as {example}")
+        if parts.username is not None or parts.password is not None:
+            raise _Invalid("must not carry a user name or password")
+        try:
+            host, port = parts.hostname, parts.port
+        except ValueError as exc:  # a port that is not a number, or out of range
+            raise _Invalid(f"has a bad port: {exc}") from None
+        if port == 0:
+            raise _Invalid("has port 0; give the device's port, e.g. 11111")
+        match = path.fullmatch(parts.path)
+        if not host or match is None or parts.query or parts.fragment:
+            raise _Invalid(f"must be the URL of an Alpaca {device_type} device, e.g. {example}, got {text!r}")
+        shown = f"[{host}]" if ":" in host else host
+        authority = shown if port is None else f"{shown}:{port}"
+        return f"{parts.scheme.lower()}://{authority}/api/v1/{device_type}/{int(match.group(1))}"
+
+    return check
+
+
 def _setting(default: Any, check: Check) -> Any:
     """A dataclass field whose metadata carries the check used when loading."""
     return field(default=default, metadata={"check": check})
@@ -314,11 +351,21 @@ class LimitSettings:
 
 @dataclass(frozen=True, kw_only=True)
 class SafetySettings:
-    """Guards against a client that vanishes mid-motion, and what to do when the server stops."""
+    """Guards against a client that vanishes mid-motion, what to do when the server stops, and the
+    observatory interlock: the Alpaca SafetyMonitor (and roof) the mount obeys (README, *Observatory*)."""
 
     moveaxis_watchdog_s: float = _setting(15.0, _float(1.0, 600.0))
     on_shutdown: Literal["stop", "park"] = _setting("stop", _choice("stop", "park"))
     guide_max_ms: int = _setting(60000, _int(1, 60000))  # the longest PulseGuide accepted (ms)
+    #: An Alpaca SafetyMonitor's URL; while it is not safe no motion starts. Empty: no monitor.
+    monitor: str = _setting("", _device_url("safetymonitor"))
+    #: An Alpaca Dome's URL (a roll-off roof or a dome): its ShutterStatus must read open (0). Empty: none.
+    roof: str = _setting("", _device_url("dome"))
+    poll_s: float = _setting(5.0, _float(0.1, 600.0))  # how often both are read
+    #: No answer (or an error) for this long counts as unsafe; at least poll_s.
+    unreachable_s: float = _setting(30.0, _float(0.5, 3600.0))
+    #: What the server does when it turns unsafe: park (tracking off), stop (tracking off) or nothing.
+    on_unsafe: Literal["park", "stop", "nothing"] = _setting("park", _choice("park", "stop", "nothing"))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -492,6 +539,10 @@ def _parse_table(cls: type, raw: Any, path: str, problems: _Problems) -> Any | N
     if len(problems.items) > before:
         return None
     section = cls(**values)
+    if isinstance(section, SafetySettings) and section.unreachable_s < section.poll_s:
+        problems.add(f"{path}.unreachable_s", f"must be at least poll_s ({section.poll_s:g} s): a device counts "
+                                              "as unreachable only after it missed a poll")
+        return None
     if isinstance(section, ServerSettings) and bool(section.basic_auth_user) != bool(
         section.basic_auth_password
     ):

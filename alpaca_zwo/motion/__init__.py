@@ -5,8 +5,9 @@ each with its own state: ``guiding.Guiding`` (client pulses, alt-az timed moves)
 (rate offsets, paid from the ledger in ``balance``), ``landing.Lander`` (landing exactly where asked),
 ``rest.RestDetector`` (rest from readings), ``limits.Limits`` (braking-aware limits) and
 ``kinds.Generation`` (the stop generation every command's guard reads). ``flip.PierFlips`` runs GOTOs
-that must land on a chosen pier side under a temporary meridian limit. Lock rules: at the top of
-``supervisor.py``.
+that must land on a chosen pier side under a temporary meridian limit. ``interlock.Interlock`` is the
+observatory's gate every start but a park asks (the safety monitor's verdict, written from above). Lock
+rules: at the top of ``supervisor.py``.
 
 May import mount, config, zwo, clients and sky.
 """

@@ -56,6 +56,7 @@ class PierFlips:
         """Start a GOTO, under ``temporary`` until it ends if given (else under the mount's own)."""
         with self._lock:
             if temporary is not None:
+                self.motion.interlock.require("SideOfPier")  # early: no temporary limit written for nothing
                 self._write(temporary, "setting the meridian limit for a pier flip")
             elif self._in_force is not None:
                 self._restore()

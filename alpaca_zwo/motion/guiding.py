@@ -166,12 +166,14 @@ class Guiding:
         most what the mount takes in one ``:Mg``."""
         return duration_ms if self.mount.state.altaz else min(duration_ms, PULSE_CHUNK_MS)
 
-    def start(self, direction: Direction, duration_ms: int, chunk: int) -> None:
+    def start(self, direction: Direction, duration_ms: int, chunk: int, generation: int | None = None) -> None:
         """Start a client pulse of any length with its first ``chunk`` (:meth:`first_chunk_ms`); the
-        supervisor's loop sends the rest (:meth:`tick`). Callers hold the supervisor's ``_start_lock``."""
+        supervisor's loop sends the rest (:meth:`tick`). Callers hold the supervisor's ``_start_lock``;
+        ``generation``: the one the supervisor admitted it under (None: the one now)."""
         axis = pulse_axis(direction)
         self._ledger.refund(axis, self.mount.monotonic())  # this pulse replaces any offset pulse
-        generation = self._stops.value
+        if generation is None:
+            generation = self._stops.value
         try:
             end = self.guide_pulse(direction, chunk, guard=self._stops.guard(generation))
         except (MountReplyError, ProtocolError, LinkError, MotionCancelled) as exc:

@@ -10,7 +10,9 @@ they use by keyword (none reaches back into the supervisor): ``rest`` (RestDetec
 ``limits`` (Limits, the braking-aware rules), ``guiding`` (Guiding: client pulses and alt-az timed
 moves), ``payer`` (OffsetPayer: rate offsets, paid from the ledger ``offsets`` the supervisor owns,
 ``balance.py``), ``lander`` (Lander: landing exactly where asked), and ``stops`` (Generation, the
-stop generation every command's guard reads, ``kinds.py``).
+stop generation every command's guard reads, ``kinds.py``). It is lent ``interlock`` (the
+observatory's safety gate, ``interlock.py``, shared by every telescope of the server): every start
+but a park asks it, so no door into the server can start motion while the safety monitor says unsafe.
 
 Lock rules (the reason this module exists):
 
@@ -76,6 +78,7 @@ from ..mount.state import MountState
 from ..zwo.wire_values import Direction
 from .balance import CYCLE_S, RateOffsets
 from .guiding import Guiding
+from .interlock import Interlock
 from .kinds import (
     DECELERATION_DEG_S2,
     INTERRUPTIONS,
@@ -121,8 +124,10 @@ class MotionSupervisor:
         registry: ClientRegistry,
         *,
         name: str = "motion",
+        interlock: Interlock | None = None,
     ) -> None:
         self.mount = mount
+        self.interlock = interlock or Interlock()  # asked by every start but a park (interlock.py)
         self._settings = settings
         self._lst = lst
         self.registry = registry
@@ -263,6 +268,8 @@ class MotionSupervisor:
         an abort meanwhile ends it like any motion and this start raises."""
         state = self.mount.state
         with self._lock:
+            if kind is not MotionKind.PARK:  # before anything changes: a refusal leaves a running park alone
+                self.interlock.require(kind.value)
             generation = self.stops.bump()
             busy = (self.motion is not None or bool(self.moves) or bool(state.moving_axes)
                     or state.goto_running or any(self.mount.drift_rates))
@@ -394,6 +401,7 @@ class MotionSupervisor:
                 raise InvalidOperation(f"a {motion.kind.value} is in progress; abort it first")
             self.limits.check_move(axis, rate)
             with self._lock:
+                self.interlock.require("MoveAxis")
                 generation = self.stops.value
                 if motion is None or motion.kind is MotionKind.STOP:
                     self.motion = Motion(MotionKind.MOVE, generation, self.mount.monotonic())
@@ -424,19 +432,45 @@ class MotionSupervisor:
 
     def pulse(self, direction: Direction, duration_ms: int) -> None:
         """Start a guide pulse of any length (sent in chunks the mount accepts)."""
+        self.interlock.require("PulseGuide")  # even a zero-length one: the rule is simply "no PulseGuide"
         if self.motion is not None and self.motion.kind is not MotionKind.STOP:
             raise InvalidOperation(f"cannot pulse guide during a {self.motion.kind.value}")
         if duration_ms == 0:
             return
         chunk = self.guiding.first_chunk_ms(duration_ms)
         with self._start_lock:
-            self.guiding.start(direction, duration_ms, chunk)
+            with self._lock:  # the gate and the generation in one step (interlock.py's race rule)
+                self.interlock.require("PulseGuide")
+                generation = self.stops.value
+            self.guiding.start(direction, duration_ms, chunk, generation)
         self._notify()
 
     def set_rate_offset(self, axis: int, arcsec_per_s: float) -> None:
-        """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east)."""
+        """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east); zero always goes."""
+        if arcsec_per_s != 0.0:
+            self.interlock.require("A rate offset")
         self.payer.set_rate(axis, arcsec_per_s)
         self._notify()
+
+    # -- tracking and unpark: starts too (the mount turns with the sky, or may move again) -----------
+
+    def set_tracking(self, on: bool) -> None:
+        """Tracking on or off. On asks the gate, and its ``:Te#`` is withdrawn unsent if the interlock
+        closes before it is written (the observatory's ``:Td#`` then follows it); off always goes."""
+        if not on:
+            self.mount.set_tracking(False)
+            return
+        self.interlock.require("Tracking=true")
+        try:
+            self.mount.set_tracking(True, guard=self.interlock.guard())
+        except MotionCancelled as exc:
+            raise self.interlock.refusal("Tracking=true") from exc
+
+    def unpark(self) -> None:
+        """Unpark: the mount may move again, so the gate must allow it."""
+        with self._lock:
+            self.interlock.require("Unpark")
+            self.parked = False
 
     # -- the supervisor thread -----------------------------------------------------------------
 

@@ -41,6 +41,7 @@ from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, parse_st
 if TYPE_CHECKING:
     from ..clients import ClientKey
     from ..config.store import SettingsStore
+    from ..motion import MotionSupervisor
     from ..mount.operations import Mount
     from ..mount.state import MountSettings
 
@@ -51,6 +52,7 @@ class Telescope(Protocol):
 
     mount: Mount
     store: SettingsStore
+    motion: MotionSupervisor
 
     @property
     def settings(self) -> Settings: ...
@@ -318,6 +320,14 @@ def _write_horizon(telescope: Telescope, changes: Reply) -> None:
     _save(telescope, "zwo:Horizon", "limits", changes)
 
 
+def _read_safety(telescope: Telescope) -> Reply:
+    """The observatory interlock's verdict, as every motion start sees it (motion/interlock.py)."""
+    verdict = telescope.motion.interlock.verdict
+    return {"safe": verdict.safe, "source": verdict.source,
+            "since": verdict.since.isoformat() if verdict.since else None,
+            "state": verdict.state.value, "reason": verdict.reason}
+
+
 # ================================================================================================
 # The table
 # ================================================================================================
@@ -363,6 +373,8 @@ ACTIONS: tuple[ZwoAction, ...] = (
               {"min_altitude_deg": Field(_number(-10.0, 60.0), "-10..60 degrees"),
                "horizon": Field(_points, "[[azimuth, altitude], ...] in degrees, [] for none")},
               _write_horizon, '{"min_altitude_deg": 5, "horizon": [[0, 10], [90, 20], [180, 15]]}'),
+    ZwoAction("zwo:Safety", "The observatory interlock: whether motion may start by the configured SafetyMonitor "
+              "and roof, which device decided, since when, and why (read-only).", _read_safety),
 )
 
 _BY_NAME: dict[str, ZwoAction] = {action.name.lower(): action for action in ACTIONS}

@@ -41,6 +41,7 @@ from ..config.settings import DeviceSettings, Settings
 from ..config.store import SettingsStore
 from ..motion import Motion, MotionKind, MotionSupervisor
 from ..motion.flip import PierFlips, side_setting
+from ..motion.interlock import Interlock
 from ..mount.operations import Mount
 from ..mount.state import MountState
 from ..sky import PierSide
@@ -87,6 +88,7 @@ class Telescope:
         registry: ClientRegistry | None = None,
         linger_s: float = LINGER_S,
         link_grace_s: float = LINK_GRACE_S,
+        interlock: Interlock | None = None,
     ) -> None:
         self.mount = mount
         self.store = store
@@ -96,7 +98,7 @@ class Telescope:
         self._target_dec: float | None = None
         self._settle_s = 0
         self.motion = MotionSupervisor(mount, lambda: self.store.settings, self._lst, self.registry,
-                                       name=f"motion-{device_index}")
+                                       name=f"motion-{device_index}", interlock=interlock)
         self.connection = Connection(mount=mount, motion=self.motion, settings=lambda: self.store.settings,
                                      linger_s=linger_s, link_grace_s=link_grace_s)
         self.caps = Capabilities(mount=mount, store=store, motion=self.motion,
@@ -329,7 +331,7 @@ class Telescope:
             self._require_unparked("Tracking=true")
         try:
             with mount_errors("setting tracking"):
-                self.mount.set_tracking(value)
+                self.motion.set_tracking(value)  # on is a start: the observatory interlock admits it
         except DriverError as exc:
             self.mount.refresh()
             reason = self.mount.state.tracking.reason if self.mount.state.tracking else ""
@@ -621,7 +623,7 @@ class Telescope:
 
     def unpark(self) -> None:
         self.connection.require_connected()
-        self.motion.parked = False
+        self.motion.unpark()
 
     def set_park(self) -> None:
         ra, dec = self._position()

@@ -2,7 +2,8 @@
 
 One module per job: ``files`` (the page and its static files), ``status`` (the status feed),
 ``settings`` (the settings API, server settings included), ``commands`` (the controls), ``trace``
-(the serial trace), ``logview`` (the log view), ``http`` (security and JSON plumbing) and
+(the serial trace), ``logview`` (the log view), ``observatory`` (the safety interlock's state and
+finding its devices), ``http`` (security and JSON plumbing) and
 ``context`` (what the routes share). The package talks to the rest of the server only through
 :mod:`alpaca_zwo.facade`.
 
@@ -21,6 +22,7 @@ from .files import DeviceSetupPage, RootRedirect, SetupPage, StaticFiles, static
 from .goto import GotoResource, ObjectDetails, ObjectSearch, SyncResource
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
+from .observatory import SafetyDiscoverResource, SafetyResource
 from .settings import ServerResource, SettingsResource
 from .skyview import SkyResource
 from .status import StatusResource
@@ -45,6 +47,8 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/server", ServerResource(web)),
         ("/setup/api/log", LogResource(web.logs)),
         ("/setup/api/log.txt", LogText(web.logs)),
+        ("/setup/api/safety", SafetyResource(web)),
+        ("/setup/api/safety/discover", SafetyDiscoverResource(web)),
         ("/setup/api/telescope/{number}/status", StatusResource(web)),
         ("/setup/api/telescope/{number}/settings", SettingsResource(web)),
         ("/setup/api/telescope/{number}/action/{name}", ActionResource(web)),

@@ -206,7 +206,9 @@ def settings_view(facade: ServerFacade, device: DeviceFacade, mount: MountSettin
                    "meridian_limit_deg": limits.meridian_limit_deg,
                    "meridian_track_past": limits.meridian_track_past},
         "safety": {"moveaxis_watchdog_s": settings.safety.moveaxis_watchdog_s,
-                   "on_shutdown": settings.safety.on_shutdown},
+                   "on_shutdown": settings.safety.on_shutdown, "monitor": settings.safety.monitor,
+                   "roof": settings.safety.roof, "poll_s": settings.safety.poll_s,
+                   "unreachable_s": settings.safety.unreachable_s, "on_unsafe": settings.safety.on_unsafe},
     }
 
 

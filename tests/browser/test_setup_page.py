@@ -188,3 +188,35 @@ def test_bridges_panel_shows_running_bridges(browser: WebDriver,
         program.close()
     WebDriverWait(browser, 10).until(lambda d: text(d, "bridges").startswith(f"stellarium yes {port} none"))
     assert console_errors(browser) == []
+
+
+def test_observatory_form_sets_the_monitor_and_the_page_shows_its_answer(
+        browser: WebDriver, server: AlpacaZwoServer, alpaca: AlpacaClient, tmp_path: Path) -> None:
+    """The Observatory form takes a real SafetyMonitor's URL (alpaca-simulators); the Status list and the form
+    show its answer; unsafe, the page's Unpark is refused with the monitor's reason; no console errors."""
+    from tests.support.observatory import AlpacaSimulators
+
+    with AlpacaSimulators(tmp_path) as sims:
+        open_page(browser, server.port)
+        WebDriverWait(browser, 10).until(lambda d: d.find_element(By.ID, "o-poll").get_attribute("value") != "")
+        assert text(browser, "safety") == "off (no monitor)"
+        monitor = browser.find_element(By.ID, "o-monitor")
+        monitor.clear()
+        monitor.send_keys(sims.monitor_url)
+        poll = browser.find_element(By.ID, "o-poll")
+        poll.clear()
+        poll.send_keys("0.5")
+        browser.find_element(By.CSS_SELECTOR, "#form-observatory button[type=submit]").click()
+        WebDriverWait(browser, 10).until(lambda d: "Observatory settings saved" in text(d, "messages"))
+        assert server.settings.safety.monitor == sims.monitor_url and server.settings.safety.poll_s == 0.5
+        WebDriverWait(browser, 10).until(lambda d: text(d, "safety") == "safe")
+        assert "IsSafe=true" in text(browser, "o-state")
+        sims.set_safe(False)
+        WebDriverWait(browser, 10).until(lambda d: text(d, "safety").startswith("UNSAFE"))
+        assert "IsSafe=false" in text(browser, "o-state")
+        WebDriverWait(browser, 60).until(lambda d: text(d, "park") == "parked")  # on_unsafe = "park"
+        browser.find_element(By.ID, "btn-unpark").click()
+        WebDriverWait(browser, 10).until(lambda d: "safety monitor" in text(d, "messages"))
+        assert alpaca.value("atpark") is True
+        refused = "/action/unpark - Failed to load resource: the server responded with a status of 409"
+        assert [e for e in console_errors(browser) if refused not in e["message"]] == []  # the refusal only

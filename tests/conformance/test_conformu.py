@@ -51,17 +51,25 @@ protocol run checks HTTP, not the sky, and is made at one site.
 
 The printed log lists every check like ConformU's report; the counts line is also added to pytest's
 terminal summary (tests/conformance/conftest.py).
+
+Observatory interlock (issue 35). Every run is made with a SafetyMonitor configured, as an observatory
+runs the server: alpaca-simulators' (PyPI), one process for the whole file on a loopback port, saying safe.
+The server polls it every 5 s (the default) through the whole run, so ConformU judges the product with the
+interlock in the path of every motion; each test checks afterwards that the monitor was answering and the
+interlock stayed open, so the run cannot pass with the monitor silently unreachable (which would refuse
+motion and fail ConformU anyway). No second run is made: the checks are the same, only the configuration is.
 """
 
 from __future__ import annotations
 
 import os
 import socket
+from collections.abc import Iterator
 
 import pytest
 from alpaca import telescope as alpaca_telescope
 
-from alpaca_zwo.config.settings import EmulatorSettings, ServerSettings
+from alpaca_zwo.config.settings import EmulatorSettings, SafetySettings, ServerSettings
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.conformance.ascom import AlpacaTelescope, AlpycaTelescope, EmulatedClock
 from tests.conformance.conformu_base import Timing
@@ -69,7 +77,9 @@ from tests.conformance.conformu_protocol import ProtocolTester
 from tests.conformance.conformu_telescope import Settings, TelescopeTester
 from tests.conformance.report import RESULTS, Level, Report
 from tests.conftest import ServerFactory, make_settings
+from tests.support.observatory import AlpacaSimulators
 from tests.support.sites import NORTH, Site
+from tests.support.wait import wait_until
 
 SPEED = float(os.environ.get("CONFORMU_SPEED", "3"))
 #: The mount's line speed. The emulator paces bytes in real time, so the line is run at
@@ -82,9 +92,31 @@ BAUD = int(MOUNT_BAUD * SPEED)
 MODES = ("eq", "altaz")
 
 
-def _start(server_factory: ServerFactory, mode: str = "eq", **sections: object) -> AlpacaZwoServer:
+@pytest.fixture(scope="module")
+def safety_monitor(tmp_path_factory: pytest.TempPathFactory) -> Iterator[AlpacaSimulators]:
+    """A real Alpaca SafetyMonitor (alpaca-simulators), safe, shared by the file's runs."""
+    with AlpacaSimulators(tmp_path_factory.mktemp("safety-monitor")) as simulators:
+        yield simulators
+
+
+def _start(server_factory: ServerFactory, mode: str = "eq", monitor: AlpacaSimulators | None = None,
+           **sections: object) -> AlpacaZwoServer:
+    if monitor is not None:  # the observatory's safe monitor, polled at the default interval
+        sections["safety"] = SafetySettings(monitor=monitor.monitor_url)
     settings = make_settings(emulator=EmulatorSettings(speed=SPEED, baud=BAUD, mode=mode), **sections)
-    return server_factory(settings)
+    server = server_factory(settings)
+    if monitor is not None:
+        wait_until(lambda: server.interlock.verdict.state.value == "safe", 10, "the safety monitor's first answer")
+    return server
+
+
+def _monitor_kept_safe(server: AlpacaZwoServer) -> None:
+    """The monitor answered all along (its last answer fresh) and the interlock never closed."""
+    assert server.safety_watch is not None
+    status = server.safety_watch.status()
+    poll_s = server.settings.safety.poll_s
+    assert status["state"] == "safe" and status["monitor"]["age_s"] <= poll_s + 5.0, status
+    assert [e["kind"] for e in status["events"]] == ["unknown", "safe"], status["events"]  # from start on, safe
 
 
 def _timing_summary(timings: list[Timing]) -> str:
@@ -115,9 +147,11 @@ def _site_as_nina_writes_it(server: AlpacaZwoServer, site: Site) -> None:
     scope.Connected = False
 
 
-def run_conformance(server_factory: ServerFactory, mode: str, site: Site) -> None:
-    """One ConformU conformance run at ``site`` with the mount in ``mode``: 0 errors, 0 issues."""
-    server = _start(server_factory, mode)
+def run_conformance(server_factory: ServerFactory, mode: str, site: Site,
+                    monitor: AlpacaSimulators | None = None) -> None:
+    """One ConformU conformance run at ``site`` with the mount in ``mode``: 0 errors, 0 issues (and, with
+    ``monitor``, the safe SafetyMonitor answering and the interlock open all along)."""
+    server = _start(server_factory, mode, monitor)
     if site is not NORTH:
         _site_as_nina_writes_it(server, site)
     clock = EmulatedClock(server.emulators[0].clock)
@@ -138,23 +172,26 @@ def run_conformance(server_factory: ServerFactory, mode: str, site: Site) -> Non
     print(counts)
     assert not tester.abandoned, "ConformU abandoned the run:\n" + report.summary()
     assert (report.errors, report.issues) == (0, 0), f"{counts}\n{report.summary()}"
+    if monitor is not None:
+        _monitor_kept_safe(server)
 
 
 @pytest.mark.timeout(780)  # equatorial: + the SideOfPier write test's 7 emulated minutes through the meridian
 @pytest.mark.parametrize("mode", MODES)
-def test_conformu_conformance(server_factory: ServerFactory, conformu_client_id: None, mode: str) -> None:
+def test_conformu_conformance(server_factory: ServerFactory, conformu_client_id: None, mode: str,
+                              safety_monitor: AlpacaSimulators) -> None:
     """``conformu conformance http://127.0.0.1:<port>/api/v1/telescope/0`` must report 0 errors, 0 issues,
-    with the mount in equatorial and in alt-az mode (north of the equator; the other sites:
-    test_conformu_sites.py)."""
-    run_conformance(server_factory, mode, NORTH)
+    with the mount in equatorial and in alt-az mode and a safe SafetyMonitor configured (north of the
+    equator; the other sites: test_conformu_sites.py)."""
+    run_conformance(server_factory, mode, NORTH, safety_monitor)
 
 
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("mode", MODES)
-def test_conformu_alpacaprotocol(server_factory: ServerFactory, mode: str) -> None:
+def test_conformu_alpacaprotocol(server_factory: ServerFactory, mode: str, safety_monitor: AlpacaSimulators) -> None:
     """``conformu alpacaprotocol``: 0 errors, 0 issues and, for a clean protocol run, 0 information messages,
-    in equatorial and in alt-az mode."""
-    server = _start(server_factory, mode)
+    in equatorial and in alt-az mode, and a safe SafetyMonitor configured."""
+    server = _start(server_factory, mode, safety_monitor)
     clock = EmulatedClock(server.emulators[0].clock)
     client = AlpacaTelescope("127.0.0.1", server.port, 0, clock)
     report = Report(f"alpacaprotocol ({mode})")
@@ -171,6 +208,7 @@ def test_conformu_alpacaprotocol(server_factory: ServerFactory, mode: str) -> No
     assert (report.errors, report.issues, report.infos) == (0, 0, 0), (
         f"{counts}\n{report.summary()}\n" + "\n".join(f"  INFO   {e.test}: {e.message}  [{e.detail}]"
                                                       for e in report.findings(Level.INFO)))
+    _monitor_kept_safe(server)
 
 
 def _free_udp_port() -> int:

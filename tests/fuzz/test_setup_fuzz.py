@@ -63,8 +63,25 @@ SEEN: Counter[tuple[str, int]] = Counter()
 @pytest.fixture(scope="module")
 def live(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
     server = start_live_server(tmp_path_factory.mktemp("setup-fuzz") / "config.toml")
-    yield server
+    with pytest.MonkeyPatch.context() as patch:
+        # POST /setup/api/safety/discover sends Alpaca discovery to the LAN (or a typed host): here every
+        # query goes to a loopback port nobody listens on, so the fuzzed requests reach the real route and
+        # finder but nothing leaves the machine (real discovery is tested in network namespaces).
+        from alpaca_zwo.alpaca import finder
+
+        original = finder.discover_servers
+        patch.setattr(finder, "discover_servers",
+                      lambda targets, port=0, timeout=0.0: original(["127.0.0.1"], _silent_udp_port(), 0.05))
+        yield server
     server.server.stop()
+
+
+def _silent_udp_port() -> int:
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
 
 
 def leaks(text: str, live: LiveServer, path: str = "") -> str | None:

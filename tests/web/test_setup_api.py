@@ -487,11 +487,31 @@ def test_park_safety_and_name(base_url: str, client: Client) -> None:
                        "safety": {"moveaxis_watchdog_s": 5, "on_shutdown": "park"},
                        "device": {"name": "Backyard AM5"}})
     assert s["park"] == {"mode": "custom", "ha_hours": 1.5, "dec_deg": 45.0}
-    assert s["safety"] == {"moveaxis_watchdog_s": 5.0, "on_shutdown": "park"}
+    assert s["safety"] == {"moveaxis_watchdog_s": 5.0, "on_shutdown": "park", "monitor": "", "roof": "",
+                           "poll_s": 5.0, "unreachable_s": 30.0, "on_unsafe": "park"}
     assert s["device"]["name"] == "Backyard AM5"
     devices = requests.get(f"{base_url}/management/v1/configureddevices", timeout=TIMEOUT).json()["Value"]
     assert devices[0]["DeviceName"] == "Backyard AM5"
     assert client.value("name") == "Backyard AM5"
+
+
+def test_observatory_settings_are_checked_and_saved(client: Client) -> None:
+    """The page's Observatory group: a URL that is not an Alpaca SafetyMonitor (or Dome) is a 400 naming the
+    key, and nothing is saved; valid ones are saved in their canonical spelling."""
+    bad = client.post("/setup/api/telescope/0/settings",
+                      {"safety": {"monitor": "http://192.168.1.30:11111/api/v1/dome/0"}})
+    assert bad.status_code == 400 and "safety.monitor" in bad.text, bad.text
+    assert client.settings()["safety"]["monitor"] == ""
+    s = client.change({"safety": {"monitor": "HTTP://127.0.0.1:9/api/v1/SafetyMonitor/0/", "roof": "",
+                                  "poll_s": 2, "unreachable_s": 20, "on_unsafe": "stop"}})
+    assert {k: s["safety"][k] for k in ("monitor", "poll_s", "unreachable_s", "on_unsafe")} == {
+        "monitor": "http://127.0.0.1:9/api/v1/safetymonitor/0", "poll_s": 2.0, "unreachable_s": 20.0,
+        "on_unsafe": "stop"}
+    # Nothing listens on port 9: unknown (motion refused) until unreachable_s, then unsafe.
+    wait_until(lambda: client.status()["safety"]["state"] == "unknown", 10, "the interlock to wait for the monitor")
+    assert client.status()["safety"]["safe"] is False
+    client.change({"safety": {"monitor": ""}})
+    wait_until(lambda: client.status()["safety"]["state"] == "off", 10, "the interlock to turn off")
 
 
 def test_settings_persist_across_a_restart(tmp_path: Path, server_factory: Callable[..., AlpacaZwoServer]) -> None:
