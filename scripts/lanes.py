@@ -1,4 +1,4 @@
-"""The lanes of a whole-suite run (scripts/run-tests with no test paths): three pytest processes side by side.
+"""The lanes of a whole-suite run (scripts/run-tests with no test paths): four pytest processes side by side.
 
 The suite waits far more than it computes (emulated slews, real-time pulses, ConformU's timed checks:
 about 6 CPU minutes in a 47-minute serial run on two cores), so independent groups overlap well:
