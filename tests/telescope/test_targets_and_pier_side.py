@@ -1,17 +1,22 @@
 """Targets and the pier side: targets read back exactly and answer 0x402 until set; DestinationSideOfPier
-predicts the side a GOTO ends on, under the mount's meridian setting.
+predicts the side a GOTO ends on, under the mount's meridian setting. And the ``Targets`` part alone.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
+from alpaca_zwo._exceptions import InvalidValue, ValueNotSet
 from alpaca_zwo.config.settings import LimitSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.telescope.targets import Targets
 from alpaca_zwo.zwo.wire_values import MeridianSettings
 from tests.conftest import ServerFactory
 from tests.telescope.harness import OK, VALUE_NOT_SET, Api, case, fast_settings, make_transport, run_cases
+from tests.telescope.parts import parts_rig
 
 
 def test_targets_answer_0x402_until_set(server: AlpacaZwoServer, api: Api, transport_kind: str) -> None:
@@ -77,3 +82,46 @@ def test_destination_side_of_pier_follows_the_meridian_setting(
 def test_side_of_pier_at_home_is_a_valid_pointing_state(api: Api) -> None:
     assert api.value("AtHome") is True
     assert api.value("SideOfPier") in (0, 1)  # the mount's N (home) still maps to a pointing state
+
+
+# ================================================================================================
+# The part alone: Targets, with the motion supervisor that keeps Slewing true for the settle time
+# ================================================================================================
+
+
+def test_targets_are_unset_until_both_are_written_and_read_back_exactly(tmp_path: Path) -> None:
+    with parts_rig(tmp_path) as rig:
+        targets = Targets(motion=rig.motion)
+        for read in (targets.target_right_ascension, targets.target_declination, targets.target):
+            with pytest.raises(ValueNotSet):
+                read()
+        targets.set_target_declination(-12.3456789012345)
+        with pytest.raises(ValueNotSet, match="TargetRightAscension"):  # RA is asked first, as SlewToTarget does
+            targets.target()
+        targets.set_target_right_ascension(23.999999)
+        assert targets.target() == (23.999999, -12.3456789012345)
+        targets.remember(1.5, 45.0)  # a slew or sync to coordinates makes them the target
+        assert (targets.target_right_ascension(), targets.target_declination()) == (1.5, 45.0)
+
+
+@pytest.mark.parametrize(("member", "value"), [
+    ("set_target_right_ascension", 24.0), ("set_target_right_ascension", -0.1),
+    ("set_target_declination", 90.1), ("set_target_declination", -91.0),
+    ("set_slew_settle_time", -1), ("set_slew_settle_time", 3601),
+])
+def test_out_of_range_values_are_refused_and_change_nothing(tmp_path: Path, member: str, value: float) -> None:
+    with parts_rig(tmp_path) as rig:
+        targets = Targets(motion=rig.motion)
+        targets.remember(3.0, 20.0)
+        targets.set_slew_settle_time(2)
+        with pytest.raises(InvalidValue):
+            getattr(targets, member)(value)
+        assert targets.target() == (3.0, 20.0) and targets.slew_settle_time() == 2 and rig.motion.settle_s == 2.0
+
+
+def test_the_settle_time_is_the_supervisors(tmp_path: Path) -> None:
+    with parts_rig(tmp_path) as rig:
+        targets = Targets(motion=rig.motion)
+        assert targets.slew_settle_time() == 0 and rig.motion.settle_s == 0.0
+        targets.set_slew_settle_time(3600)
+        assert targets.slew_settle_time() == 3600 and rig.motion.settle_s == 3600.0

@@ -1,4 +1,6 @@
-"""Time and site: UTCDate on the wire and on the mount, the sidereal time, the site, and what persists."""
+"""Time and site: UTCDate on the wire and on the mount, the sidereal time, the site, and what persists;
+and the ``SiteClock`` part alone on the real emulator.
+"""
 
 from __future__ import annotations
 
@@ -10,10 +12,16 @@ import pytest
 import requests
 from alpaca import telescope as alpyca_telescope
 
+from alpaca_zwo import sky
+from alpaca_zwo._exceptions import InvalidValue, NotConnected
+from alpaca_zwo.clients import ClientKey, current_client
 from alpaca_zwo.config.file import load_settings, save_settings
 from alpaca_zwo.config.settings import Settings
 from alpaca_zwo.emulator import MountModel
+from alpaca_zwo.mount.timekeeping import TimeSource
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.telescope.clock import SiteClock
+from alpaca_zwo.telescope.connection import Connection
 from tests.conftest import ServerFactory
 from tests.telescope.harness import (
     ARCSEC,
@@ -27,6 +35,7 @@ from tests.telescope.harness import (
     slew_to_ha,
     wrap12,
 )
+from tests.telescope.parts import Rig, parts_rig
 
 
 def test_utc_date_is_iso8601_with_z_and_agrees_with_the_mount_clock(server: AlpacaZwoServer, api: Api) -> None:
@@ -134,3 +143,76 @@ def test_site_park_and_unique_id_persist_across_restarts(server_factory: ServerF
     api.wait_idle()
     assert api.hour_angle() == pytest.approx(-2.0, abs=0.02)
     assert api.value("Declination") == pytest.approx(40.0, abs=0.01)
+
+
+# ================================================================================================
+# The part alone: SiteClock on a real Mount and emulator, its connection check a real Connection's
+# ================================================================================================
+
+CLIENT = ClientKey("192.0.2.30", 5)
+
+
+def clock_and_connection(rig: Rig) -> tuple[SiteClock, Connection]:
+    connection = Connection(mount=rig.mount, motion=rig.motion, settings=lambda: rig.settings, linger_s=60.0,
+                            link_grace_s=30.0)
+    return SiteClock(mount=rig.mount, settings=lambda: rig.settings,
+                     require_connected=connection.require_connected), connection
+
+
+def test_the_sidereal_time_is_the_reference_time_at_the_configured_longitude(tmp_path: Path) -> None:
+    with parts_rig(tmp_path) as rig:
+        clock, connection = clock_and_connection(rig)
+        with pytest.raises(NotConnected):
+            clock.sidereal_time()
+        with pytest.raises(NotConnected):
+            clock.utc_date()
+        connection.attach(CLIENT)
+        when = clock.utc_now()
+        assert clock.lst(when) == sky.local_sidereal_time(when, -0.0005)
+        rig.store.update(lambda s: dataclasses.replace(s, site=dataclasses.replace(s.site, longitude=120.0)))
+        assert clock.lst(when) == sky.local_sidereal_time(when, 120.0)  # read per call: the store replaces it
+        assert abs(wrap12(clock.sidereal_time() - clock.lst(clock.utc_now()))) < 1.0 / 3600.0
+        assert abs((clock.utc_date() - rig.model.clock.now()).total_seconds()) < 2.0  # the emulator's clock
+
+
+def test_a_clients_utc_date_becomes_the_reference_and_the_mounts_clock(tmp_path: Path) -> None:
+    with parts_rig(tmp_path) as rig:
+        clock, connection = clock_and_connection(rig)
+        connection.attach(CLIENT)
+        written = datetime(2031, 3, 4, 17, 45, 31, tzinfo=timezone.utc)
+        token = current_client.set(CLIENT)
+        try:
+            clock.set_utc_date(written)
+        finally:
+            current_client.reset(token)
+        view = rig.mount.time.view()
+        assert view.source is TimeSource.CLIENT and "client 192.0.2.30 #5 (UTCDate)" in view.reason
+        assert timedelta(0) <= clock.utc_date() - written < timedelta(seconds=30)  # mount seconds since
+        mount_utc = datetime.fromisoformat(rig.model.snapshot()["mount_utc"])
+        assert abs((mount_utc - clock.utc_now()).total_seconds()) < 2.0  # the mount's clock was set
+
+
+@pytest.mark.parametrize("value", [datetime(1999, 12, 31, tzinfo=timezone.utc),
+                                   datetime(2100, 1, 1, tzinfo=timezone.utc), datetime(1, 1, 1)])
+def test_a_date_the_mounts_clock_cannot_hold_is_refused_and_changes_nothing(tmp_path: Path, value: datetime) -> None:
+    with parts_rig(tmp_path) as rig:
+        clock, connection = clock_and_connection(rig)
+        connection.attach(CLIENT)
+        before = rig.mount.time.view().source
+        with pytest.raises(InvalidValue, match="2000-2099"):
+            clock.set_time(value, "a test")
+        assert rig.mount.time.view().source is before
+        assert abs((clock.utc_now() - rig.model.clock.now()).total_seconds()) < 2.0
+
+
+def test_a_time_set_with_no_link_is_kept_for_the_connect(tmp_path: Path) -> None:
+    """The page may set the time before any client connects: the reference takes it, the mount later."""
+    with parts_rig(tmp_path) as rig:
+        clock, connection = clock_and_connection(rig)
+        written = datetime(2030, 6, 1, 22, 0, 0, tzinfo=timezone.utc)
+        assert clock.set_time(written, "a browser") is False  # not pushed: no link
+        assert rig.mount.time.view().source is TimeSource.CLIENT
+        connection.attach(CLIENT)  # the connect pushes the client's time
+        mount_utc = datetime.fromisoformat(rig.model.snapshot()["mount_utc"])
+        assert abs((mount_utc - clock.utc_now()).total_seconds()) < 2.0
+        assert timedelta(0) <= clock.utc_now() - written < timedelta(seconds=60)
