@@ -223,7 +223,7 @@ def _write_meridian(telescope: Telescope, changes: Reply) -> None:
     _save(telescope, "zwo:MeridianSettings", "limits", {"meridian_track_past": wanted.track_after,
                                                         "meridian_limit_deg": wanted.limit_degrees})
     try:
-        telescope.connection.set_meridian_settings(wanted)  # the Telescope remembers it for DestinationSideOfPier
+        telescope.connection.set_meridian_settings(wanted)  # remembered for DestinationSideOfPier
     except Exception:
         _save(telescope, "zwo:MeridianSettings", "limits", before)
         raise
