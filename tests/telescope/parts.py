@@ -20,6 +20,7 @@ from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.motion import MotionSupervisor
 from alpaca_zwo.mount.operations import Mount
+from alpaca_zwo.telescope.connection import Connection
 from alpaca_zwo.zwo.link import Link
 from tests.conftest import make_settings
 
@@ -41,8 +42,10 @@ class Rig:
     def settings(self) -> Settings:
         return self.store.settings
 
-    def lst(self) -> float:
-        return sky.local_sidereal_time(self.mount.time.now(), self.settings.site.longitude)
+    def connection(self, linger_s: float = 60.0, link_grace_s: float = 30.0) -> Connection:
+        """A Connection as the Telescope builds one: the parts' ``require_connected`` is its."""
+        return Connection(mount=self.mount, motion=self.motion, settings=lambda: self.settings, linger_s=linger_s,
+                          link_grace_s=link_grace_s)
 
 
 def closed_port() -> int:

@@ -18,7 +18,6 @@ from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.telescope.actions import supported_actions
 from alpaca_zwo.telescope.capabilities import AXIS_MIN_DEG_S, Capabilities
-from alpaca_zwo.telescope.connection import Connection
 from alpaca_zwo.zwo.firmware import preset
 from alpaca_zwo.zwo.wire_values import MountMode
 from tests.support import wait_until
@@ -60,8 +59,7 @@ def capabilities_on(tmp_path: Path, *, connect: bool = True,
                     **model_options: object) -> Iterator[tuple[Capabilities, Rig]]:
     """Capabilities as the Telescope builds them: its connection check is a real Connection's."""
     with parts_rig(tmp_path, **model_options) as rig:
-        connection = Connection(mount=rig.mount, motion=rig.motion, settings=lambda: rig.settings, linger_s=60.0,
-                                link_grace_s=30.0)
+        connection = rig.connection()
         if connect:
             connection.attach(CLIENT)
         yield Capabilities(mount=rig.mount, store=rig.store, motion=rig.motion,
@@ -92,8 +90,7 @@ def test_can_set_pier_side_needs_equatorial_mode_and_meridian_settings(tmp_path:
                                                                        expected: bool) -> None:
     with capabilities_on(tmp_path, connect=False, **options) as (caps, rig):
         assert caps.can_set_pier_side() is True  # not read yet: a German mount with current firmware assumed
-        Connection(mount=rig.mount, motion=rig.motion, settings=lambda: rig.settings, linger_s=60.0,
-                   link_grace_s=30.0).attach(CLIENT)
+        rig.connection().attach(CLIENT)
         assert caps.can_set_pier_side() is expected
         assert caps.flips_by_limit() is expected
 

@@ -14,7 +14,6 @@ import pytest
 
 from alpaca_zwo._exceptions import ERR_LINK, DriverError, NotConnected
 from alpaca_zwo.clients import ClientKey, current_client
-from alpaca_zwo.telescope.connection import Connection
 from alpaca_zwo.zwo.wire_values import MeridianSettings
 from tests.support import wait_until
 from tests.telescope.harness import Api
@@ -126,18 +125,13 @@ def as_client(key: ClientKey) -> Iterator[None]:
         current_client.reset(token)
 
 
-def connection_on(rig: Rig, linger_s: float = 60.0, link_grace_s: float = 30.0) -> Connection:
-    return Connection(mount=rig.mount, motion=rig.motion, settings=lambda: rig.settings, linger_s=linger_s,
-                      link_grace_s=link_grace_s)
-
-
 def test_the_first_client_opens_the_link_and_pushes_the_configured_settings(tmp_path: Path) -> None:
     """The configuration is the source of truth: a mount reset to other settings gets them back at connect."""
     settings = with_limits(meridian_limit_deg=-10.0, meridian_track_past=False)
     with parts_rig(tmp_path, settings=settings) as rig:
         assert rig.model.flash.set_meridian(MeridianSettings(False, True, 5))
         rig.model.set_tracking_rate("lunar")
-        connection = connection_on(rig)
+        connection = rig.connection()
         assert not rig.mount.running and not connection.held_by(None)
         connection.attach(NINA)
         assert rig.mount.running
@@ -151,7 +145,7 @@ def test_the_first_client_opens_the_link_and_pushes_the_configured_settings(tmp_
 
 def test_the_members_name_their_client_from_the_request_context(tmp_path: Path) -> None:
     with parts_rig(tmp_path) as rig:
-        connection = connection_on(rig)
+        connection = rig.connection()
         with as_client(NINA):
             assert connection.connected() is False
             connection.set_connected(True)
@@ -172,12 +166,12 @@ def test_the_members_name_their_client_from_the_request_context(tmp_path: Path) 
         connection.set_connected(True)  # an internal caller holds it under its own name
         assert connection.clients() == {ClientKey("internal", 0)}
         with pytest.raises(NotConnected):
-            connection_on(rig).require_connected()  # another device nobody holds
+            rig.connection().require_connected()  # another device nobody holds
 
 
 def test_the_link_lingers_after_the_last_client_then_closes(tmp_path: Path) -> None:
     with parts_rig(tmp_path) as rig:
-        connection = connection_on(rig, linger_s=0.3)
+        connection = rig.connection(linger_s=0.3)
         connection.attach(NINA)
         connection.release(NINA)
         assert rig.mount.running, "closed at once: a client reconnecting would wait for the connect sequence"
@@ -190,7 +184,7 @@ def test_the_link_lingers_after_the_last_client_then_closes(tmp_path: Path) -> N
 
 def test_a_client_returning_within_the_linger_keeps_the_link(tmp_path: Path) -> None:
     with parts_rig(tmp_path) as rig:
-        connection = connection_on(rig, linger_s=0.3)
+        connection = rig.connection(linger_s=0.3)
         connection.attach(NINA)
         connection.release(NINA)
         connection.attach(PHD2)
@@ -204,7 +198,7 @@ def test_a_client_returning_within_the_linger_keeps_the_link(tmp_path: Path) -> 
 def test_the_last_client_leaving_stops_manual_motion(tmp_path: Path) -> None:
     """A vanished client must not leave the mount moving (a MoveAxis owner's last word was "move")."""
     with parts_rig(tmp_path) as rig:
-        connection = connection_on(rig)
+        connection = rig.connection()
         connection.attach(NINA)
         rig.registry.touch(NINA, "N.I.N.A.")  # a client the server has heard from (the MoveAxis watchdog asks)
         rig.motion.move_axis(0, 1.0, NINA)
@@ -225,7 +219,7 @@ def test_a_mount_that_cannot_be_reached(tmp_path: Path) -> None:
     """Connected=true fails with the URL in the message; Connect() only logs; nobody is counted in."""
     url = f"socket://127.0.0.1:{closed_port()}"
     with parts_rig(tmp_path, url=url) as rig:
-        connection = connection_on(rig)
+        connection = rig.connection()
         with pytest.raises(DriverError) as info:
             connection.attach(NINA)
         assert info.value.number == ERR_LINK and url in info.value.message

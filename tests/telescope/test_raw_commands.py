@@ -27,8 +27,7 @@ def raw_allowed() -> Settings:
 
 
 def raw_and_connection(rig: Rig) -> tuple[RawCommands, Connection]:
-    connection = Connection(mount=rig.mount, motion=rig.motion, settings=lambda: rig.settings, linger_s=60.0,
-                            link_grace_s=30.0)
+    connection = rig.connection()
     return RawCommands(mount=rig.mount, settings=lambda: rig.settings,
                        require_connected=connection.require_connected), connection
 

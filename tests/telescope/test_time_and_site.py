@@ -153,8 +153,7 @@ CLIENT = ClientKey("192.0.2.30", 5)
 
 
 def clock_and_connection(rig: Rig) -> tuple[SiteClock, Connection]:
-    connection = Connection(mount=rig.mount, motion=rig.motion, settings=lambda: rig.settings, linger_s=60.0,
-                            link_grace_s=30.0)
+    connection = rig.connection()
     return SiteClock(mount=rig.mount, settings=lambda: rig.settings,
                      require_connected=connection.require_connected), connection
 
