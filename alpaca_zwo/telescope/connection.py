@@ -65,7 +65,7 @@ class Connection:
     # -- members -----------------------------------------------------------------------------
 
     def connected(self) -> bool:
-        """The calling client holds the device (an internal caller: anyone does) and the link is up."""
+        """The calling client holds the device (an internal caller: anyone does) and the link is up or in its grace."""
         return self.held_by(current_client.get())
 
     def set_connected(self, value: bool) -> None:
