@@ -493,7 +493,7 @@
 
   function choose(id, name) {
     if (typeof hook.select === "function") {
-      hook.select(id);
+      hook.select(id, "chart"); // on a phone its card opens as a sheet above STOP, the chart in view
       offer("Selected " + name + ".");
     } else {
       offer(name + " (selection needs the hand controller)");
