@@ -440,6 +440,7 @@
 
   // The sky chart (skychart.js) selects a star or object tapped on the chart through this.
   hook.select = select;
+  hook.closeCard = () => placeCard(false);
 
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
   else start();

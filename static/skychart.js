@@ -519,6 +519,8 @@
   }
 
   function offerPoint(x, y) {
+    // A tap on empty sky is a new question: a phone's sheet (the last object's card) gives way to the answer.
+    if (typeof hook.closeCard === "function") hook.closeCard();
     const [alt, az] = hook.unproject(x, y);
     if (alt < 0 || alt > 90) return; // below the horizon or outside the chart: nothing to point at
     if (chart.lst === null || chart.latitude === null) {
