@@ -346,6 +346,7 @@
     const box = $("arrival");
     box.textContent = text;
     box.className = "arrival" + (cls ? " " + cls : "") + (text ? "" : " hidden");
+    show("arrival-close", Boolean(text));
   }
 
   function eta(left) {
@@ -402,18 +403,14 @@
   // ------------------------------------------------------------------ the phone's sheet
 
   // On a phone the chart is far from the hand controller: an object chosen on the chart gets its card (with
-  // GoTo, Sync, the progress and arrival lines) in the dock above STOP, and the chart is kept in view above
+  // GoTo and Sync) in the dock above the motion line and STOP, and the chart is kept in view above
   // it, so a tap on a star and its GoTo are on one screen. × or a search puts the card back in place.
   const PHONE = window.matchMedia("(max-width: 720px)");
   function placeCard(asSheet) {
     const card = $("selection");
     const inSheet = card.parentElement === $("sheet-slot");
-    if (asSheet && !inSheet) {
-      $("sheet-slot").append(card);
-      card.querySelector(".hs-actions").after($("progress"), $("arrival")); // under GoTo, in the sheet's view
-    } else if (!asSheet && inSheet) {
-      $("find-note").after(card, $("progress"), $("arrival"));
-    }
+    if (asSheet && !inSheet) $("sheet-slot").append(card);
+    else if (!asSheet && inSheet) $("find-note").after(card);
     if (asSheet) keepChartInView();
   }
 
@@ -433,6 +430,7 @@
     bindSearch();
     bindButtons();
     $("sel-close").addEventListener("click", () => placeCard(false));
+    $("arrival-close").addEventListener("click", () => setArrival("", ""));
     PHONE.addEventListener("change", () => { if (!PHONE.matches) placeCard(false); });
     hook.onStatus(onStatus);
     setInterval(refreshSelection, REFRESH_MS);

@@ -91,6 +91,12 @@ class Page:
                           " (e.closest('#btn-stop') ? 'STOP' : e.tagName + '#' + e.id + '.' + e.className);", x, y)
             assert hit == "STOP", (where, (x, y), hit)
 
+    def place(self, element_id: str) -> tuple[float, float]:
+        """Where an element is on the page (not the screen): it moves only if something pushed it."""
+        found = self.js("const r = document.getElementById(arguments[0]).getBoundingClientRect();"
+                        " return [r.left + window.scrollX, r.top + window.scrollY];", element_id)
+        return round(found[0], 1), round(found[1], 1)
+
     def find(self, text: str) -> None:
         field = self.driver.find_element(By.ID, "find")
         self.js("arguments[0].scrollIntoView({block: 'center'})", field)
@@ -129,15 +135,23 @@ def test_stop_never_moves_and_is_never_covered(server_factory: ServerFactory, br
     seen = {"at first": home}
 
     page.find("Vega")
+    jog = {"before the GoTo": page.place("jog-n")}
     page.tap("btn-goto")
     WebDriverWait(browser, TIMEOUT).until(lambda d: "GoTo Vega started." in page.messages())
     seen["a message showing"] = page.stop_box()
     page.assert_stop_uncovered("a message showing")
     WebDriverWait(browser, TIMEOUT).until(lambda d: d.find_element(By.ID, "progress").is_displayed())
     seen["during the GoTo"] = page.stop_box()
+    jog["during the GoTo"] = page.place("jog-n")
     page.shot("stop-goto")
     WebDriverWait(browser, 120).until(lambda d: d.find_element(By.ID, "arrival").is_displayed())
     seen["after the GoTo"] = page.stop_box()
+    jog["after the GoTo"] = page.place("jog-n")
+    page.assert_stop_uncovered("the arrival line showing")
+    # the progress and arrival lines and the messages push no control: the jog pad stays where it was
+    assert len(set(jog.values())) == 1, (jog, page.js(
+        "return [...document.querySelectorAll('.controls-card > *, #handset > *, #selection > *')]"
+        ".map((e) => (e.id || e.className) + ': ' + Math.round(e.getBoundingClientRect().height))"))
 
     page.find("Canopus")  # never rises at 51.5° N: the server refuses it
     page.tap("btn-goto")
