@@ -1073,7 +1073,21 @@
     });
   }
 
+  // The page's end is padded by the bar's height as it is now (it grows on a phone while a motion line
+  // shows), so the last control can always be scrolled clear of it; nothing above moves.
+  function padForTheBar() {
+    const bar = document.querySelector(".stop-bar");
+    const pad = () => {
+      const px = Math.ceil(bar.getBoundingClientRect().height) + 8 + "px";
+      document.body.style.paddingBottom = px;
+      document.documentElement.style.scrollPaddingBottom = px;
+    };
+    if (window.ResizeObserver) new ResizeObserver(pad).observe(bar);
+    pad();
+  }
+
   async function start() {
+    padForTheBar();
     bindNight();
     bindTurn();
     orient(0);
