@@ -113,6 +113,18 @@ class Page:
         self.js("arguments[0].scrollIntoView({block: 'center'})", element)
         element.click()
 
+    def tap_on_chart(self, star: str) -> None:
+        """A real pointer tap on the star's dot on the chart (scrolled to the middle of the screen first)."""
+        dot = f"#sky-chart circle[data-name='{star}']"
+        WebDriverWait(self.driver, TIMEOUT).until(lambda d: d.find_elements(By.CSS_SELECTOR, dot))
+        self.js("document.getElementById('sky').scrollIntoView({block: 'center'})")
+        x, y = self.js("const r = document.querySelector(arguments[0]).getBoundingClientRect();"
+                       " return [r.left + r.width / 2, r.top + r.height / 2];", dot)
+        actions = ActionBuilder(self.driver)
+        actions.pointer_action.move_to_location(round(x), round(y)).click()
+        actions.perform()
+        WebDriverWait(self.driver, TIMEOUT).until(lambda d: d.find_element(By.ID, "sel-name").text == star)
+
     def messages(self) -> str:
         return str(self.js("return document.getElementById('messages').innerText"))
 
@@ -254,15 +266,7 @@ def test_the_time_source_is_chosen_on_the_page(server_factory: ServerFactory, br
 def test_a_star_tapped_on_the_chart_shows_its_card_with_goto_in_view(server_factory: ServerFactory,
                                                                     browser: WebDriver, size: str) -> None:
     page = Page(server_factory, browser, size, night=size == "phone")
-    vega = "#sky-chart circle[data-name='Vega']"
-    WebDriverWait(browser, TIMEOUT).until(lambda d: d.find_elements(By.CSS_SELECTOR, vega))
-    page.js("document.getElementById('sky').scrollIntoView({block: 'center'})")
-    dot = page.js("const r = document.querySelector(\"#sky-chart circle[data-name='Vega']\").getBoundingClientRect();"
-                  " return [r.left + r.width / 2, r.top + r.height / 2];")
-    actions = ActionBuilder(browser)
-    actions.pointer_action.move_to_location(round(dot[0]), round(dot[1])).click()
-    actions.perform()
-    WebDriverWait(browser, TIMEOUT).until(lambda d: d.find_element(By.ID, "sel-name").text == "Vega")
+    page.tap_on_chart("Vega")
     inner = page.js("return [window.innerWidth, window.innerHeight]")
     stop_top = page.stop_box()[1]
     goto = page.js("const r = document.getElementById('btn-goto').getBoundingClientRect();"
@@ -329,13 +333,7 @@ def test_night_mode_is_red_light_only_in_every_view(server_factory: ServerFactor
     WebDriverWait(browser, TIMEOUT).until(lambda d: page.errors())
     views["error"] = page.shot("night-error")
     WebDriverWait(browser, TIMEOUT).until(lambda d: d.find_elements(By.CSS_SELECTOR, "#sky-chart .sky-body.sun"))
-    page.js("document.getElementById('sky').scrollIntoView({block: 'center'})")
-    dot = page.js("const r = document.querySelector(\"#sky-chart circle[data-name='Vega']\").getBoundingClientRect();"
-                  " return [r.left + r.width / 2, r.top + r.height / 2];")
-    actions = ActionBuilder(browser)
-    actions.pointer_action.move_to_location(round(dot[0]), round(dot[1])).click()
-    actions.perform()
-    WebDriverWait(browser, TIMEOUT).until(lambda d: d.find_element(By.ID, "sel-name").text == "Vega")
+    page.tap_on_chart("Vega")
     views["chart"] = page.shot("night-chart")
     browser.find_element(By.ID, "btn-goto").click()  # the slewing telescope, its target, the motion line
     WebDriverWait(browser, TIMEOUT).until(lambda d: " left" in d.find_element(By.ID, "progress").text)
