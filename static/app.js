@@ -1061,15 +1061,19 @@
       store("alpaca-zwo-night", on ? "1" : "0");
     });
     const dim = $("dim");
-    const level = Math.round(Number(getComputedStyle(root).getPropertyValue("--dim") || 1) * 100);
-    dim.value = String(level >= 20 && level <= 100 ? level : 100);
-    dim.setAttribute("aria-valuetext", dim.value + "%");
-    dim.addEventListener("input", () => {
-      const percent = Number(dim.value);
+    const setDim = (percent) => {
       if (percent >= 100) root.style.removeProperty("--dim");
       else root.style.setProperty("--dim", String(percent / 100));
+      root.classList.toggle("dimmed", percent < 100);
+      dim.value = String(percent);
       dim.setAttribute("aria-valuetext", percent + "%");
-      store("alpaca-zwo-dim", String(percent));
+    };
+    let level = 100;
+    try { level = Number(localStorage.getItem("alpaca-zwo-dim") || 100); } catch (_) { /* storage disabled */ }
+    setDim(level >= 20 && level <= 100 ? level : 100);
+    dim.addEventListener("input", () => {
+      setDim(Number(dim.value));
+      store("alpaca-zwo-dim", dim.value);
     });
   }
 

@@ -17,5 +17,8 @@
   if (night === "1") root.classList.add("night");
   const percent = Number(dim);
   // A filter on the root element dims everything, STOP included, and keeps position: fixed working.
-  if (percent >= 20 && percent < 100) root.style.setProperty("--dim", String(percent / 100));
+  if (percent >= 20 && percent < 100) {
+    root.style.setProperty("--dim", String(percent / 100));
+    root.classList.add("dimmed");
+  }
 })();
