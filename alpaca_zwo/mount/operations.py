@@ -45,6 +45,7 @@ TRACK_RATE_FACTORS = {
     TrackRate.LUNAR: 1.0 - 1.0 / 27.321661 * (SIDEREAL_DAY_S / 86400.0),
 }
 PULSE_CHUNK_MS = 3000
+CLOCK_POLL_S = 0.01  # mount seconds between readings of :GL# while waiting for its second to turn
 
 
 def utc_now() -> datetime:
@@ -345,6 +346,9 @@ class Mount:
         reading, at = first, before - 0.5  # on average, its second began half a second ago
         deadline = before + 1.5  # mount seconds: one tick of its clock and a margin
         while precise and self.monotonic() < deadline:
+            # Paced: the instant is wanted to a few milliseconds, and a fast link (WiFi, a socket) would
+            # otherwise carry thousands of readings of the same second, crowding out everyone else's.
+            time.sleep(CLOCK_POLL_S / self._clock_rate)
             reading = self._exec(protocol.query("GL"), priority)
             after = self.monotonic() - reply_s * self._clock_rate
             if reading != first:
