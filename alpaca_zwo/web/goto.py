@@ -4,7 +4,9 @@
 site and the server's clock now, ``POST …/goto`` and ``POST …/sync`` point at it or sync on it. The
 catalogue place becomes the mount's frame here (topocentric apparent, ``objects.apparent``); the
 slew and the sync are then the Telescope's own SlewToCoordinatesAsync / SyncToCoordinates through
-the facade, so the horizon limits, park state and every refusal are the Alpaca API's. ``objects`` (and
+the facade, so the horizon limits, park state and every refusal are the Alpaca API's. The card's verdict
+(``…/object``'s ``verdict``, ``GET …/goto/verdict?ra=&dec=``) is the check that GoTo runs first
+(``DeviceFacade.goto_verdict``), so the page never says fine where the GoTo refuses. ``objects`` (and
 with it PyEphem and OpenNGC) is imported on the first request, never at server start.
 """
 
