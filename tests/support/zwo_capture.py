@@ -102,13 +102,13 @@ def segments() -> dict[str, list[str]]:
     for code in ("RG", "RC", "RM", "RS"):
         settings += [code, code + "x"]
     settings += _with_arguments("Rv") + _with_arguments("Rvr") + _with_arguments("Rvd")
-    settings += ["TQ", "GT", "TS", "GT", "TL", "GT", "TQ", "TQx"] + _with_arguments("STR")
+    settings += ["TQ", "GT", "TS", "GT", "TL", "GT", "TQ", "TQx", *_with_arguments("STR")]
     settings += ["Td", "GAT", "Te", "GAT", "Tex", "Tdx"]
-    settings += _with_arguments("Rg") + ["Rg0.5"]
+    settings += [*_with_arguments("Rg"), "Rg0.5"]
     for code in ("STa", "SLH", "SLL", "SRl", "SBu"):
         settings += _with_arguments(code)
     settings += ["STa00+00", "SLE", "SLD", "SLEx", "SLH80", "SLL05", "SRl1440", "SBu1"]
-    settings += ["GV", "GVx", "GVP", "GVT", "GBl", "GU"] + _with_arguments("SBl") + _with_arguments("BS")
+    settings += ["GV", "GVx", "GVP", "GVT", "GBl", "GU", *_with_arguments("SBl"), *_with_arguments("BS")]
     settings += ["AA", "AP", "AAx", "APx", "Gh", "SOax", "Spux", "hCx", "hPx", "CMx", "NSCx", "Mex", "Qex", "Mx"]
     settings += ["GX", "gr", "STA00+00", "", " ", "G", "S", "M", "Xyz", "GRGD", "GR ", "sr05:00:00", "\xdf"]
     # Syncs at rest, alignment, home and park positions; then a GOTO under the horizon in the north
@@ -124,7 +124,7 @@ def segments() -> dict[str, list[str]]:
     moves = ["R5", "Me", "@advance 1", "Qe", "@advance 5", "Mw", "@advance 1", "Qw", "@advance 5", "Mn",
              "@advance 1", "Qn", "@advance 5", "Ms", "@advance 1", "Qs", "@advance 5", "Rv2", "Me", "Mn",
              "@advance 2", "Q", "@advance 30", "Rvr3", "Rvd4", "Mw", "Ms", "@advance 2", "Qw", "Qs"]
-    guiding = ["Te", "Rg0.5"] + _with_arguments("Mg") + ["@advance 12", "Td", "Mgn0500", "Mge0500"]
+    guiding = ["Te", "Rg0.5", *_with_arguments("Mg"), "@advance 12", "Td", "Mgn0500", "Mge0500"]
     home = ["hC", "Gh", "SOa", "Sp01", "@advance 90", "Gh", "GU", "SOa", "Sp01", "Gm"]
     park = ["hP", "Gps", "Spu", "@advance 5", "Gps", "@advance 90", "Gps", "Sr02:00:00", "Sd+30*00:00", "MS",
             "Te", "Spu", "Spu", "Gps", "Sp01"]
