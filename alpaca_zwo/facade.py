@@ -212,10 +212,10 @@ class DeviceFacade:
         return self._telescope.mount.monotonic()
 
     def utc_now(self) -> datetime:
-        return self._telescope.utc_now()
+        return self._telescope.clock.utc_now()
 
     def connected_clients(self) -> frozenset[ClientKey]:
-        return self._telescope.connected_clients()
+        return self._telescope.connection.clients()
 
     def motion(self) -> MotionView:
         """What Alpaca clients would read now; all blank while the mount is not connected."""
@@ -224,13 +224,13 @@ class DeviceFacade:
         t = self._telescope
         return MotionView(
             slewing=_quiet(t.slewing, False), at_park=_quiet(t.at_park, False), at_home=_quiet(t.at_home, False),
-            guiding=_quiet(t.is_pulse_guiding, False), tracking_rate=_quiet(t.tracking_rate, None),
+            guiding=_quiet(t.is_pulse_guiding, False), tracking_rate=_quiet(t.capabilities.tracking_rate, None),
             side_of_pier=_quiet(t.side_of_pier, None))
 
     def target(self) -> tuple[float, float] | None:
         """The slew target (RA hours, Dec degrees), or None when none is set."""
         try:
-            return self._telescope.target_right_ascension(), self._telescope.target_declination()
+            return self._telescope.targets.target()
         except AlpacaError:
             return None
 
@@ -296,7 +296,7 @@ class DeviceFacade:
             return
         mount = self._telescope.mount
         setters: dict[str, Callable[[Any], None]] = {
-            "meridian": self._telescope.set_meridian_settings, "upper_limit": mount.set_upper_limit,
+            "meridian": self._telescope.connection.set_meridian_settings, "upper_limit": mount.set_upper_limit,
             "lower_limit": mount.set_lower_limit, "limits_enabled": mount.set_limits_enabled,
             "heavy_duty": mount.set_heavy_duty, "buzzer": mount.set_buzzer}
         setters[name](value)
@@ -316,12 +316,12 @@ class DeviceFacade:
 
     def set_site(self, values: Mapping[str, float]) -> None:
         """Through the Telescope, so the mount gets the new site at once and clients read the same values."""
-        self._telescope.set_site(values)
+        self._telescope.capabilities.set_site(values)
 
     # -- controls (run with the caller's client key set in ``current_client``) --------------------
 
     def set_connected(self, on: bool) -> None:
-        self._telescope.set_connected(on)
+        self._telescope.connection.set_connected(on)
 
     def abort(self) -> None:
         """Stop means stop: also when parked (AbortSlew refuses then), send the mount's stop-all."""
@@ -352,11 +352,11 @@ class DeviceFacade:
         self._telescope.set_tracking(on)
 
     def set_tracking_rate(self, rate: int) -> None:
-        self._telescope.set_tracking_rate(rate)
+        self._telescope.capabilities.set_tracking_rate(rate)
 
     def set_guide_rate(self, fraction: float) -> None:
         """The guide rate as a fraction of sidereal (both axes share it on a ZWO mount)."""
-        self._telescope.set_guide_rate_right_ascension(fraction * SIDEREAL_DEG_S)
+        self._telescope.capabilities.set_guide_rate_right_ascension(fraction * SIDEREAL_DEG_S)
 
     def clock(self) -> ClockView:
         """The time reference: its source (host, mount or client), why, and the host clock's standing."""
@@ -365,16 +365,16 @@ class DeviceFacade:
     def set_time(self, value: datetime, who: str) -> TimeSetReport:
         """Set the server's and (when connected) the mount's time, then read the mount's clock back."""
         telescope = self._telescope
-        if not telescope.set_time(value, who):
-            return TimeSetReport(telescope.utc_now(), False)
+        if not telescope.clock.set_time(value, who):
+            return TimeSetReport(telescope.clock.utc_now(), False)
         mount = telescope.mount
         try:
             mount_utc, at = mount.read_clock()
         except (LinkError, ProtocolError, MountReplyError) as exc:
             log.warning("the mount's clock could not be read back: %s", exc)
-            return TimeSetReport(telescope.utc_now(), True)
-        reference = telescope.utc_now() - timedelta(seconds=mount.monotonic() - at)
-        return TimeSetReport(telescope.utc_now(), True, mount_utc, (mount_utc - reference).total_seconds())
+            return TimeSetReport(telescope.clock.utc_now(), True)
+        reference = telescope.clock.utc_now() - timedelta(seconds=mount.monotonic() - at)
+        return TimeSetReport(telescope.clock.utc_now(), True, mount_utc, (mount_utc - reference).total_seconds())
 
     # -- pointing at an object (web/goto.py): the same Telescope calls, limits and refusals as Alpaca --
 
@@ -396,8 +396,8 @@ class DeviceFacade:
         """SlewToCoordinatesAsync, then the drive rate the object needs (lunar, solar, sidereal): set only
         once the slew has been accepted, so a refused GoTo changes nothing."""
         self._telescope.slew_to_coordinates_async(ra_hours, dec_deg)
-        if _quiet(self._telescope.tracking_rate, None) != tracking_rate:
-            self._telescope.set_tracking_rate(tracking_rate)
+        if _quiet(self._telescope.capabilities.tracking_rate, None) != tracking_rate:
+            self._telescope.capabilities.set_tracking_rate(tracking_rate)
 
     def sync(self, ra_hours: float, dec_deg: float) -> None:
         """SyncToCoordinates (the mount's frame), with its refusals."""

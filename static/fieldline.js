@@ -20,14 +20,16 @@
   const SAMPLES = 8;
   const fl = { samples: [], status: null, busy: false };
 
-  // "3 h 0 min", "12 min 5 s", "4.2 s": as the server words a clock difference.
+  // "3 h 0 min", "12 min 5 s", "4.2 s": as the server words a clock difference (timekeeping.py's
+  // describe_difference), rounded to its last unit, so 10,799.6 s reads "3 h 0 min", not "2 h 59 min".
   function difference(seconds) {
     const s = Math.abs(seconds);
-    if (s < 60) return s.toFixed(1) + " s";
-    const minutes = Math.floor(s / 60);
-    if (minutes < 60) return minutes + " min " + Math.floor(s % 60) + " s";
-    const hours = Math.floor(minutes / 60);
-    if (hours < 48) return hours + " h " + (minutes % 60) + " min";
+    if (s < 59.95) return s.toFixed(1) + " s";
+    const total = Math.round(s);
+    if (total < 3600) return Math.floor(total / 60) + " min " + (total % 60) + " s";
+    const minutes = Math.round(s / 60);
+    if (minutes < 48 * 60) return Math.floor(minutes / 60) + " h " + (minutes % 60) + " min";
+    const hours = Math.round(s / 3600);
     return Math.floor(hours / 24) + " d " + (hours % 24) + " h";
   }
 

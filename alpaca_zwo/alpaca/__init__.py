@@ -5,8 +5,8 @@ per-address connection limit, UDP discovery (32227), the mDNS advertiser, the DN
 guard, and how clients reach this machine (``listen_check``: can we listen on a host and port;
 ``local_addresses``: this machine's LAN addresses for the start banner). Also the other way round, as a
 client of other Alpaca devices: ``remote`` (reading a SafetyMonitor or a Dome) and ``finder`` (discovering
-them for the setup page). It knows Alpaca and nothing of ZWO: a device is anything implementing
-:class:`AlpacaDevice`.
+them for the setup page). It knows Alpaca and nothing of ZWO: a device is an :class:`AlpacaDevice` (its
+identity) with the handlers the member table names, each on the part of the device the row says.
 
 May import only ``clients`` and ``_exceptions``.
 """

@@ -20,7 +20,7 @@ from typing import Any, NamedTuple
 import falcon
 
 from alpaca_zwo._exceptions import AlpacaError
-from alpaca_zwo.alpaca.device import AlpacaDevice, missing_handlers
+from alpaca_zwo.alpaca.device import AlpacaDevice, handler_for, missing_handlers
 from alpaca_zwo.alpaca.errors import (
     access_log,
     handle_bad_request,
@@ -53,10 +53,14 @@ class _Endpoint(NamedTuple):
 
 
 def _bind(device: AlpacaDevice, members: Iterable[Member], case_sensitive: bool) -> dict[str, _Endpoint]:
+    """Each member's handler looked up once (the owner's, or the constant's), so a request makes no lookups."""
     table = {}
     for m in members:
+        call = handler_for(device, m)
+        if call is None:  # create_app checked every handler first
+            raise TypeError(f"{type(device).__name__} lacks {m.answered_by}")
         fields = tuple((p.name if case_sensitive else p.name.lower(), p, PARSERS[p.type]) for p in m.params)
-        table[m.path] = _Endpoint(m, getattr(device, m.handler), fields, tuple(p.kwarg for p in m.params),
+        table[m.path] = _Endpoint(m, call, fields, tuple(p.kwarg for p in m.params),
                                   RENDERERS.get(m.returns) if m.returns else None, m.returns is not None)
     return table
 

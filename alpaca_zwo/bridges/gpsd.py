@@ -222,7 +222,7 @@ class GpsdSite:
             previous, self.applied = self.applied, {**values, "moved_m": round(moved, 1),
                                                     "at": datetime.now(timezone.utc).isoformat()}
         try:
-            self.telescope.set_site(values)
+            self.telescope.capabilities.set_site(values)
         except AlpacaError as exc:
             with self._lock:
                 self.applied = previous

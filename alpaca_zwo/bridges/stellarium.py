@@ -514,7 +514,7 @@ class StellariumBridge:
         """The current position in the configured equinox, or None while the mount has none."""
         try:
             ra, dec = self.telescope.right_ascension(), self.telescope.declination()
-            when = self.telescope.utc_now()
+            when = self.telescope.clock.utc_now()
         except AlpacaError as exc:
             if not self._no_position_logged:
                 log.debug("Stellarium: no position to send: %s", exc.message)
@@ -569,7 +569,7 @@ class StellariumBridge:
     def _work_due(self) -> bool:
         if self._pending_goto is not None or self._stopping.is_set():
             return True
-        if self._held and BRIDGE_CLIENT not in self.telescope.connected_clients():
+        if self._held and BRIDGE_CLIENT not in self.telescope.connection.clients():
             self._held = False  # let go of by the Telescope (e.g. reset): take it again if still wanted
         if self._want_hold == self._held:
             return False
@@ -580,7 +580,7 @@ class StellariumBridge:
         if want == self._held:
             return
         try:
-            self.telescope.set_connected(want)
+            self.telescope.connection.set_connected(want)
         except AlpacaError as exc:
             self._hold_failed_at = time.monotonic()
             log.warning("Stellarium: cannot connect the telescope: %s", exc.message)
@@ -596,7 +596,7 @@ class StellariumBridge:
         try:
             ra, dec = goto.ra_hours, goto.dec_deg
             if self.equinox == "J2000":
-                ra, dec = j2000_to_apparent(ra, dec, self.telescope.utc_now(), self.telescope.settings.site)
+                ra, dec = j2000_to_apparent(ra, dec, self.telescope.clock.utc_now(), self.telescope.settings.site)
             record.update(mount_ra_hours=ra, mount_dec_degrees=dec)
             log.info("Stellarium goto from %s: RA %.5f h Dec %+.4f deg %s (mount RA %.5f h Dec %+.4f deg)",
                      goto.address, goto.ra_hours, goto.dec_deg, self.equinox, ra, dec)

@@ -42,15 +42,15 @@ class ClockAndSite:
         self.utc_offset_hours = _host_utc_offset_hours()  # the mount's zone as programs see it
 
     def local(self) -> datetime:
-        return self.telescope.utc_now() + timedelta(hours=self.utc_offset_hours)
+        return self.telescope.clock.utc_now() + timedelta(hours=self.utc_offset_hours)
 
     def set_local(self, local: datetime) -> str:
         """Set the server's UTC (the Telescope's UTCDate, pushed to the mount) from a local time."""
         utc = (local - timedelta(hours=self.utc_offset_hours)).replace(tzinfo=timezone.utc)
-        if abs((utc - self.telescope.utc_now()).total_seconds()) < TIME_TOLERANCE_S:
+        if abs((utc - self.telescope.clock.utc_now()).total_seconds()) < TIME_TOLERANCE_S:
             return "1"
         try:
-            self.telescope.set_utc_date(utc)
+            self.telescope.clock.set_utc_date(utc)
         except InvalidValue:
             return "0"
         return "1"
@@ -99,10 +99,10 @@ class ClockAndSite:
     def update_site(self, latitude: float | None, longitude: float | None) -> str:
         t = self.telescope
         try:
-            if latitude is not None and abs(latitude - t.site_latitude()) >= SITE_TOLERANCE_DEG:
-                t.set_site_latitude(latitude)
-            if longitude is not None and abs(longitude - t.site_longitude()) >= SITE_TOLERANCE_DEG:
-                t.set_site_longitude(longitude)
+            if latitude is not None and abs(latitude - t.capabilities.site_latitude()) >= SITE_TOLERANCE_DEG:
+                t.capabilities.set_site_latitude(latitude)
+            if longitude is not None and abs(longitude - t.capabilities.site_longitude()) >= SITE_TOLERANCE_DEG:
+                t.capabilities.set_site_longitude(longitude)
         except AlpacaError:  # out of range, or not saved (full disk: SettingsNotSaved): refused, as the mount would
             return "0"
         return "1"

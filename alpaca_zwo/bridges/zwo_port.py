@@ -401,7 +401,7 @@ class ZwoPortBridge:
             if self._holding == 0:
                 token = current_client.set(BRIDGE_KEY)
                 try:
-                    self.telescope.set_connected(True)
+                    self.telescope.connection.set_connected(True)
                 finally:
                     current_client.reset(token)
             self._holding += 1
@@ -413,7 +413,7 @@ class ZwoPortBridge:
             if self._holding == 0:
                 token = current_client.set(BRIDGE_KEY)
                 try:
-                    self.telescope.set_connected(False)
+                    self.telescope.connection.set_connected(False)
                 except AlpacaError as exc:
                     log.warning("ZWO port: releasing the telescope failed: %s", exc.message)
                 finally:

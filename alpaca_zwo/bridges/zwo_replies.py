@@ -133,7 +133,7 @@ class ZwoResponder:
 
     def _set_meridian(self, argument: str, well_formed: bool) -> str:
         try:
-            self.telescope.set_meridian_settings(wire_values.parse_meridian(argument))
+            self.telescope.connection.set_meridian_settings(wire_values.parse_meridian(argument))
         except (ProtocolError, AlpacaError):
             return "0"
         return "1" if well_formed else "0"
@@ -146,14 +146,15 @@ class ZwoResponder:
             # Date, time, site
             "SC": c.set_date, "GC": lambda s, a, w: format_date(c.local().date()) + "#",
             "SL": c.set_time, "GL": lambda s, a, w: format_time(c.local().time()) + "#",
-            "GS": lambda s, a, w: format_hms(t.sidereal_time()) + "#",
+            "GS": lambda s, a, w: format_hms(t.clock.sidereal_time()) + "#",
             "GH": lambda s, a, w: self._setting_reply(lambda m: f"{int(bool(m.daylight_saving))}#", "daylight_saving"),
             "SG": c.set_zone, "GG": lambda s, a, w: format_utc_offset(c.utc_offset_hours) + "#",
-            "St": c.set_latitude, "Gt": lambda s, a, w: format_latitude(t.site_latitude()) + "#",
-            "Sg": c.set_longitude, "Gg": lambda s, a, w: format_longitude(t.site_longitude()) + "#",
+            "St": c.set_latitude, "Gt": lambda s, a, w: format_latitude(t.capabilities.site_latitude()) + "#",
+            "Sg": c.set_longitude, "Gg": lambda s, a, w: format_longitude(t.capabilities.site_longitude()) + "#",
             "SMTI": c.set_date_time_zone, "GMTI": c.get_date_time_zone,
             "SMGE": c.set_site,
-            "GMGE": lambda s, a, w: f"{format_latitude(t.site_latitude())}&{format_longitude(t.site_longitude())}#",
+            "GMGE": lambda s, a, w: (f"{format_latitude(t.capabilities.site_latitude())}&"
+                                     f"{format_longitude(t.capabilities.site_longitude())}#"),
             # Position and target
             "Gm": lambda s, a, w: self._pier_letter(),
             "Sr": self._set_target_ra, "Sd": self._set_target_dec,
@@ -236,7 +237,7 @@ class ZwoResponder:
         if session.target is not None:
             return session.target
         try:
-            return self.telescope.target_right_ascension(), self.telescope.target_declination()
+            return self.telescope.targets.target()
         except AlpacaError:
             return self.telescope.right_ascension(), self.telescope.declination()
 
@@ -319,8 +320,8 @@ class ZwoResponder:
     def _limit_code(self, ra: float, dec: float) -> int:
         """5 under the horizon (altitude 0 or the configured profile), 6 under the altitude limit."""
         t = self.telescope
-        ha = sky.hour_angle(t.sidereal_time(), ra)
-        altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, t.site_latitude())
+        ha = sky.hour_angle(t.clock.sidereal_time(), ra)
+        altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, t.capabilities.site_latitude())
         profile_only = dataclasses.replace(t.settings.limits, min_altitude_deg=-90.0)
         if altitude < 0.0 or altitude < horizon_altitude_at(profile_only, azimuth):
             return 5
@@ -411,7 +412,7 @@ class ZwoResponder:
 
     def _tracking_rate(self, code: str) -> Handler:
         def handler(_session: Session, _argument: str, _well_formed: bool) -> None:
-            self._quietly(self.telescope.set_tracking_rate, DRIVE_RATE[code])
+            self._quietly(self.telescope.capabilities.set_tracking_rate, DRIVE_RATE[code])
             return None
 
         return handler
@@ -434,7 +435,7 @@ class ZwoResponder:
             return None
         value = float(argument)
         fraction = value / 15.0 if value >= 1.5 - 1e-9 else value
-        self._quietly(self.telescope.set_guide_rate_right_ascension, fraction * SIDEREAL_DEG_S)
+        self._quietly(self.telescope.capabilities.set_guide_rate_right_ascension, fraction * SIDEREAL_DEG_S)
         return None
 
     def _unpark(self, _session: Session, _argument: str, _well_formed: bool) -> str:

@@ -68,17 +68,18 @@ class _Anchor:
 
 
 def describe_difference(seconds: float) -> str:
-    """``3 h 0 min``, ``12 min 5 s``, ``4.2 s``: a clock difference in words, without its sign."""
+    """``3 h 0 min``, ``12 min 5 s``, ``4.2 s``: a clock difference in words, without its sign, rounded
+    to its last unit (10,799.6 s is "3 h 0 min", not "2 h 59 min"); the page's fieldline.js words it alike."""
     s = abs(seconds)
-    if s < 60:
+    if s < 59.95:
         return f"{s:.1f} s"
-    minutes = int(s // 60)
-    if minutes < 60:
-        return f"{minutes} min {int(s % 60)} s"
-    hours, minutes = divmod(minutes, 60)
+    total = round(s)
+    if total < 3600:
+        return f"{total // 60} min {total % 60} s"
+    hours, minutes = divmod(round(s / 60), 60)
     if hours < 48:
         return f"{hours} h {minutes} min"
-    days, hours = divmod(hours, 24)
+    days, hours = divmod(round(s / 3600), 24)
     return f"{days} d {hours} h"
 
 

@@ -121,7 +121,7 @@ class Responder:
 
     def _make_safe(self, index: int, telescope: Telescope, action: str, verdict: Verdict) -> bool:
         """One step towards the safe state; True once there. Raises AlpacaError when the mount is away."""
-        if not telescope.mount.running or not telescope.connected_clients():
+        if not telescope.mount.running or not telescope.connection.clients():
             now = time.monotonic()
             if now < self._next_send.get(index, 0.0):
                 return False
@@ -143,7 +143,7 @@ class Responder:
         why = f"the safety monitor reports unsafe ({verdict.reason})"
         self._record("action", f"telescope {index}: {why}: stopping{' and parking' if action == 'park' else ''}")
         supervisor.abort(why)  # every motion, pulse and timed move
-        telescope.caps.zero_offsets()
+        telescope.capabilities.zero_offsets()
         if action == "stop":
             self._tracking_off(telescope)
             return True

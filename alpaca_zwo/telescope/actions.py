@@ -39,11 +39,11 @@ from ..config.settings import Settings, settings_from_dict, settings_to_dict
 from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, parse_status
 
 if TYPE_CHECKING:
-    from ..clients import ClientKey
     from ..config.store import SettingsStore
     from ..motion import MotionSupervisor
     from ..mount.operations import Mount
     from ..mount.state import MountSettings
+    from .connection import Connection
 
 
 class Telescope(Protocol):
@@ -53,13 +53,10 @@ class Telescope(Protocol):
     mount: Mount
     store: SettingsStore
     motion: MotionSupervisor
+    connection: Connection  # who holds the device connected; the mount's meridian setting
 
     @property
     def settings(self) -> Settings: ...
-
-    def set_meridian_settings(self, meridian: MeridianSettings) -> None: ...
-
-    def connected_clients(self) -> frozenset[ClientKey]: ...
 
 
 log = logging.getLogger(__name__)
@@ -226,7 +223,7 @@ def _write_meridian(telescope: Telescope, changes: Reply) -> None:
     _save(telescope, "zwo:MeridianSettings", "limits", {"meridian_track_past": wanted.track_after,
                                                         "meridian_limit_deg": wanted.limit_degrees})
     try:
-        telescope.set_meridian_settings(wanted)  # the Telescope remembers it for DestinationSideOfPier
+        telescope.connection.set_meridian_settings(wanted)  # remembered for DestinationSideOfPier
     except Exception:
         _save(telescope, "zwo:MeridianSettings", "limits", before)
         raise
@@ -423,7 +420,7 @@ def run_action(telescope: Telescope, name: str, parameters: str) -> str:
         raise ActionNotImplemented(f"action {name!r} is not supported; SupportedActions lists "
                                    f"{', '.join(supported_actions())}")
     # As every other member: connected while any client holds the device and the mount link runs.
-    if not telescope.connected_clients() or not telescope.mount.running:
+    if not telescope.connection.clients() or not telescope.mount.running:
         raise NotConnected(f"{action.name} needs the telescope connected: set Connected=true or call Connect")
     changes = _changes(action, parameters)
     with mount_errors(action.name):

@@ -1,4 +1,9 @@
-"""The Telescope's capabilities, the members a ZWO mount lacks, guide rates, rate offsets and site.
+"""The Telescope's capabilities that vary, the members a ZWO mount lacks, its rates and its site.
+
+The Can* flags that never change are constants in the member table (``alpaca/members.py``); the
+ones here depend on the mount (CanSetPierSide: its mode and firmware) or take an argument (CanMoveAxis).
+The rates: the drive rate (TrackingRate, TrackingRates), its offsets (RightAscensionRate, DeclinationRate),
+the guide rate and the axis rates.
 
 No lock here: the rate offsets are plain floats written by one member and read back, and the
 settings store serialises its own saves.
@@ -28,10 +33,14 @@ from ..zwo.wire_values import SLEW_SPEEDS, TrackRate
 log = logging.getLogger(__name__)
 
 AXIS_MIN_DEG_S = SLEW_SPEEDS[0] * SIDEREAL_DEG_S  # 0.25x sidereal
+#: TrackingRate codes (ASCOM DriveRates) and the mount's rates; King (3) the mount does not have.
+DRIVE_RATES = {0: TrackRate.SIDEREAL, 1: TrackRate.LUNAR, 2: TrackRate.SOLAR}
+RATE_CODES = {rate: code for code, rate in DRIVE_RATES.items()}
 
 
 class Capabilities:
-    """Can* flags, AxisRates, guide and offset rates and the site of :class:`~alpaca_zwo.telescope.device.Telescope`.
+    """CanSetPierSide, CanMoveAxis, AxisRates, the drive, guide and offset rates and the site of
+    :class:`~alpaca_zwo.telescope.device.Telescope`.
 
     ``require_connected`` is the owner's connection check (raises NotConnected), called where a
     member needs the mount.
@@ -52,45 +61,6 @@ class Capabilities:
 
     # -- capabilities ------------------------------------------------------------------------
 
-    def can_find_home(self) -> bool:
-        return True
-
-    def can_park(self) -> bool:
-        return True
-
-    def can_unpark(self) -> bool:
-        return True
-
-    def can_set_park(self) -> bool:
-        return True
-
-    def can_pulse_guide(self) -> bool:
-        return True  # in alt-az, where :Mg moves nothing (field notes §2.5), pulses are timed moves
-
-    def can_set_guide_rates(self) -> bool:
-        return True
-
-    def can_set_tracking(self) -> bool:
-        return True
-
-    def can_slew(self) -> bool:
-        return True
-
-    def can_slew_async(self) -> bool:
-        return True
-
-    def can_slew_alt_az(self) -> bool:
-        return True
-
-    def can_slew_alt_az_async(self) -> bool:
-        return True
-
-    def can_sync(self) -> bool:
-        return True
-
-    def can_sync_alt_az(self) -> bool:
-        return True
-
     def can_set_pier_side(self) -> bool:
         """A German mount flips on a SideOfPier write (motion/flip.py) by a temporary meridian limit, so
         only with firmware that has meridian settings (1.2.4+); an alt-az mount has no pier side."""
@@ -101,12 +71,6 @@ class Capabilities:
         firmware with meridian settings (unknown firmware: not yet read, assume the current kind)."""
         state = self.mount.state
         return not state.altaz and (state.info is None or state.info.has_meridian_settings)
-
-    def can_set_declination_rate(self) -> bool:
-        return True  # paid in guide pulses, which are timed moves in alt-az (motion/guiding.py)
-
-    def can_set_right_ascension_rate(self) -> bool:
-        return True
 
     def can_move_axis(self, axis: int) -> bool:
         if axis not in (0, 1, 2):
@@ -132,13 +96,29 @@ class Capabilities:
     def focal_length(self) -> float:
         raise MemberNotImplemented("a mount does not know the telescope's focal length")
 
-    def does_refraction(self) -> bool:
-        return False
-
     def set_does_refraction(self, value: bool) -> None:
         if value:
             raise MemberNotImplemented("the mount does not correct for refraction")
 
+    # -- the drive rate -------------------------------------------------------------------------
+
+    def tracking_rates(self) -> list[int]:
+        return sorted(DRIVE_RATES)
+
+    def tracking_rate(self) -> int:
+        self._require_connected()
+        return RATE_CODES[self.mount.state.tracking_rate]
+
+    def set_tracking_rate(self, value: int) -> None:
+        if value not in DRIVE_RATES:
+            raise InvalidValue(f"TrackingRate {value} is not supported; use 0 (sidereal), 1 (lunar) or 2 (solar)")
+        self._require_connected()
+        with mount_errors("setting the tracking rate"):
+            self.mount.set_tracking_rate(DRIVE_RATES[value])
+        if DRIVE_RATES[value] is not TrackRate.SIDEREAL:  # offsets exist only on sidereal (Platform 7)
+            self.zero_offsets()
+
+    # -- rate offsets ----------------------------------------------------------------------------
     # Rate offsets are paid as guide pulses by the motion supervisor (motion/offsets.py); the values
     # clients wrote are kept exactly, for read-back.
 

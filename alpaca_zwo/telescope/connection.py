@@ -27,7 +27,7 @@ from .._exceptions import (
     ProtocolError,
     mount_errors,
 )
-from ..clients import ClientKey
+from ..clients import ClientKey, current_client
 from ..config.settings import Settings
 from ..motion import MotionSupervisor
 from ..mount.operations import Mount
@@ -40,8 +40,10 @@ class Connection:
     """Who holds the device connected, and the mount link's life: opened (with the configured mount
     settings pushed) by the first client, closed ``linger_s`` after the last one let go.
 
-    Clients are named by the caller (the Telescope reads them from the request context), so this
-    part knows nothing of HTTP or bridges.
+    The members (Connected, Connect, Disconnect, Connecting) name their client by the request context
+    (``clients.current_client``, set by the Alpaca door and the bridges; none: an internal caller);
+    ``attach``/``release`` take it from a caller that holds the device for itself (the observatory's
+    response), so this part knows nothing of HTTP or bridges.
     """
 
     def __init__(self, *, mount: Mount, motion: MotionSupervisor, settings: Callable[[], Settings],
@@ -60,9 +62,34 @@ class Connection:
         #: depend on it.
         self.meridian = MeridianSettings()
 
+    # -- members -----------------------------------------------------------------------------
+
+    def connected(self) -> bool:
+        """The calling client holds the device (an internal caller: anyone does) and the link is up or in its grace."""
+        return self.held_by(current_client.get())
+
+    def set_connected(self, value: bool) -> None:
+        if value:
+            self.attach(self._caller())
+        else:
+            self.release(self._caller())
+
+    def connect(self) -> None:
+        self.connect_in_background(self._caller())
+
+    def disconnect(self) -> None:
+        self.release(self._caller())
+
+    def connecting(self) -> bool:
+        return self._connecting
+
+    @staticmethod
+    def _caller() -> ClientKey:
+        return current_client.get() or ClientKey("internal", 0)
+
     # -- clients -----------------------------------------------------------------------------
 
-    def connected(self, key: ClientKey | None) -> bool:
+    def held_by(self, key: ClientKey | None) -> bool:
         """``key`` holds the device (``None``: anyone does) and the link is up or within its grace."""
         with self._clients_lock:
             has_client = bool(self._clients) if key is None else key in self._clients
@@ -102,9 +129,6 @@ class Connection:
                     self._connecting = False
 
         threading.Thread(target=run, name="telescope-connect", daemon=True).start()
-
-    def connecting(self) -> bool:
-        return self._connecting
 
     def clients(self) -> frozenset[ClientKey]:
         """Who holds the device connected (the setup page lists them)."""

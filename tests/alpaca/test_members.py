@@ -1,4 +1,8 @@
-"""The member table against the official Alpaca spec, and the AlpacaDevice protocol against the table."""
+"""The member table against the official Alpaca spec, and how a device is held to the table.
+
+Every row names who answers it (a part of the device, the device itself) or gives its constant; the
+real Telescope's handlers are checked against the rows in tests/telescope/test_member_owners.py.
+"""
 
 from __future__ import annotations
 
@@ -7,12 +11,19 @@ from pathlib import Path
 
 import pytest
 
-from alpaca_zwo.alpaca.device import AlpacaDevice, missing_handlers
+from alpaca_zwo import __version__
+from alpaca_zwo.alpaca.device import AlpacaDevice, handler_for, missing_handlers
 from alpaca_zwo.alpaca.members import (
+    CAPABILITIES,
+    CLOCK,
     COMMON_MEMBERS,
+    CONNECTION,
     DEVICE_MEMBERS,
+    RAW_COMMANDS,
+    TARGETS,
     TELESCOPE_DEVICE_STATE,
     TELESCOPE_MEMBERS,
+    Constant,
     Member,
     Param,
     ValueType,
@@ -122,27 +133,43 @@ def test_value_returning_puts() -> None:
     assert all(m.returns for m in MEMBERS if m.verb == "GET")
 
 
-_ANNOTATIONS = {ValueType.BOOL: "bool", ValueType.INT: "int", ValueType.FLOAT: "float",
-                ValueType.STR: "str", ValueType.UTCDATE: "datetime", ValueType.STR_LIST: "list[str]",
-                ValueType.INT_LIST: "list[int]", ValueType.AXIS_RATES: "AxisRateList",
-                ValueType.DEVICE_STATE: "DeviceStateList", None: "None"}
+_CONSTANT_TYPES = {ValueType.BOOL: bool, ValueType.INT: int, ValueType.STR: str}
 
 
-def test_protocol_matches_table() -> None:
-    declared = {name for name, value in vars(AlpacaDevice).items()
-                if inspect.isfunction(value) and not name.startswith("_")}
-    assert declared == {m.handler for m in MEMBERS}
+def test_every_row_names_who_answers_it() -> None:
+    """A part of the device, the device itself, or a constant of the row's own type: nothing else."""
+    assert {m.owner for m in MEMBERS} == {None, CONNECTION, CAPABILITIES, CLOCK, TARGETS, RAW_COMMANDS}
     for m in MEMBERS:
-        signature = inspect.signature(getattr(AlpacaDevice, m.handler))
-        params = list(signature.parameters.values())[1:]
-        if m.setter:
-            assert [p.name for p in params] == ["value"], m.handler
-            assert params[0].annotation == _ANNOTATIONS[m.params[0].type], m.handler
-        else:
-            assert [p.name for p in params] == [p.kwarg for p in m.params], m.handler
-            assert [p.annotation for p in params] == [_ANNOTATIONS[p.type] for p in m.params], m.handler
-        assert signature.return_annotation == _ANNOTATIONS[m.returns], m.handler
-    for identity in ("device_name", "unique_id"):  # read-only properties the management API reads
+        if m.constant is not None:
+            assert m.verb == "GET" and not m.params and m.owner is None, m.name
+            assert m.returns is not None and type(m.constant.value) is _CONSTANT_TYPES[m.returns], m.name
+    constants = {m.name: m.constant.value for m in MEMBERS if m.constant is not None}
+    assert constants == {
+        "CanFindHome": True, "CanPark": True, "CanPulseGuide": True, "CanSetDeclinationRate": True,
+        "CanSetGuideRates": True, "CanSetPark": True, "CanSetRightAscensionRate": True, "CanSetTracking": True,
+        "CanSlew": True, "CanSlewAltAz": True, "CanSlewAltAzAsync": True, "CanSlewAsync": True, "CanSync": True,
+        "CanSyncAltAz": True, "CanUnpark": True, "DoesRefraction": False, "EquatorialSystem": 1,
+        "InterfaceVersion": 4, "DriverVersion": __version__,
+        "DriverInfo": "alpaca-zwo: ASCOM Alpaca server for ZWO AM3/AM5/AM7 mounts (ITelescopeV4)",
+    }
+    with pytest.raises(ValueError, match="constant"):
+        Member("Tracking", "PUT", (Param("Tracking", ValueType.BOOL),), "set_tracking", None, True, False, "",
+               constant=Constant(True))
+
+
+def test_a_constant_needs_no_handler_and_answers_itself() -> None:
+    can_park = next(m for m in MEMBERS if m.name == "CanPark")
+    handler = handler_for(object(), can_park)
+    assert handler is not None and handler() is True
+    assert "can_park" not in missing_handlers(object(), MEMBERS)
+
+
+def test_the_protocol_is_the_identity_alone() -> None:
+    """Handlers are the table's business (owner + handler name); the Protocol keeps what the management API reads."""
+    declared = {name for name, value in vars(AlpacaDevice).items()
+                if not name.startswith("_") and (inspect.isfunction(value) or isinstance(value, property))}
+    assert declared == {"device_name", "unique_id"}
+    for identity in declared:
         assert isinstance(vars(AlpacaDevice)[identity], property), identity
 
 
@@ -169,9 +196,12 @@ def test_reference_lists_every_member() -> None:
     text = reference_markdown()
     for m in MEMBERS:
         assert f"/api/v1/telescope/{{n}}/{m.path}`" in text
-        assert f"`{m.handler}(" in text
+        assert f"`{m.answered_by}" in text
     assert "`move_axis(axis=, rate=)`" in text
     assert "`set_tracking(value)`" in text
+    assert "`capabilities.axis_rates(axis=)`" in text
+    assert "`connection.set_connected(value)`" in text
+    assert "`constant True`" in text
 
 
 def test_missing_handlers_reports_names() -> None:
@@ -184,6 +214,45 @@ def test_missing_handlers_reports_names() -> None:
     lacking = missing_handlers(Partial(), MEMBERS)
     assert "tracking" not in lacking
     assert "set_tracking" in lacking and "unique_id" in lacking
+    assert "connection.connected" in lacking and "capabilities.axis_rates" in lacking
+
+
+def test_missing_handlers_looks_on_the_owner_and_at_the_parameters() -> None:
+    """A handler on the wrong part, or taking other parameters than the row's, is as good as missing."""
+
+    class Capabilities:
+        def axis_rates(self, axis: int) -> list[tuple[float, float]]:
+            return []
+
+        def can_move_axis(self, axes: int) -> bool:  # mis-named keyword
+            return True
+
+        def set_site_latitude(self, value: float, extra: float) -> None:  # a setter takes one value
+            pass
+
+    class Device:
+        device_name = unique_id = "x"
+        capabilities = Capabilities()
+
+        def site_longitude(self) -> float:  # on the device, but the table says capabilities
+            return 0.0
+
+    lacking = missing_handlers(Device(), MEMBERS)
+    assert "capabilities.axis_rates" not in lacking
+    assert "capabilities.can_move_axis taking ['axis']" in lacking
+    assert "capabilities.set_site_latitude taking (value)" in lacking
+    assert "capabilities.site_longitude" in lacking
+
+
+def test_create_app_refuses_a_device_lacking_a_handler() -> None:
+    from alpaca_zwo.alpaca import ServerInfo, create_app
+    from alpaca_zwo.clients import ClientRegistry
+
+    class Nameless:
+        device_name = unique_id = "x"
+
+    with pytest.raises(TypeError, match=r"lacks .*connection\.connected"):
+        create_app([Nameless()], ClientRegistry(), ServerInfo("s", "m", "0", "l"))
 
 
 def test_member_is_frozen() -> None:

@@ -223,16 +223,16 @@ def test_several_stellariums_at_once(rig: Rig) -> None:
 def test_bridge_holds_the_telescope_connected_while_stellarium_is(tmp_path: Path) -> None:
     with running_server(tmp_path, connect_alpaca=False) as rig:
         telescope = rig.server.telescopes[0]
-        assert BRIDGE_CLIENT not in telescope.connected_clients()
+        assert BRIDGE_CLIENT not in telescope.connection.clients()
         first, second = StellariumClient(rig.stellarium_port), StellariumClient(rig.stellarium_port)
         # With no Alpaca client at all, Stellarium alone connects the mount and gets positions.
-        wait_until(lambda: BRIDGE_CLIENT in telescope.connected_clients(), 20.0, "the bridge to connect the mount")
+        wait_until(lambda: BRIDGE_CLIENT in telescope.connection.clients(), 20.0, "the bridge to connect the mount")
         assert first.read_position(timeout=10.0).status == 0
         first.close()
         second.latest_position()
-        assert BRIDGE_CLIENT in telescope.connected_clients(), "released while a Stellarium is still connected"
+        assert BRIDGE_CLIENT in telescope.connection.clients(), "released while a Stellarium is still connected"
         second.close()
-        wait_until(lambda: BRIDGE_CLIENT not in telescope.connected_clients(), 5.0, "the bridge to let go")
+        wait_until(lambda: BRIDGE_CLIENT not in telescope.connection.clients(), 5.0, "the bridge to let go")
         status = rig.server.stellarium.status()
         assert status["clients"] == [] and status["enabled"] and status["port"] == rig.stellarium_port
 

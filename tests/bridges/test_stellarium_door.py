@@ -53,7 +53,7 @@ def test_a_web_pages_request_is_closed_before_it_is_a_client(rig: Rig, caplog: p
     assert status["clients"] == [] and status["last_command"] is None
     assert status["turned_away"] - before == attempts
     assert "not Stellarium's protocol (message length" in status["last_turned_away"]["message"]
-    assert BRIDGE_CLIENT not in rig.server.telescopes[0].connected_clients()  # the mount was never connected
+    assert BRIDGE_CLIENT not in rig.server.telescopes[0].connection.clients()  # the mount was never connected
     assert rig.server.emulators[0].model.snapshot()["slew"] is None  # type: ignore[union-attr]
     messages = [r.getMessage() for r in caplog.records if r.name == LOGGER]
     assert not any("connected from" in m for m in messages), messages
@@ -70,7 +70,7 @@ def test_silence_is_stellariums_opening(rig: Rig, caplog: pytest.LogCaptureFixtu
         first = client.read_position(timeout=TIMEOUT)  # the bridge connects the mount for it, then streams
         assert first.received - started >= QUIET_OPENING_S * 0.9
         assert [c["address"] for c in rig.server.stellarium.status()["clients"]] == [address]
-        assert BRIDGE_CLIENT in rig.server.telescopes[0].connected_clients()
+        assert BRIDGE_CLIENT in rig.server.telescopes[0].connection.clients()
         assert any(f"Stellarium connected from {address}" in r.getMessage() for r in caplog.records)
     finally:
         client.close()

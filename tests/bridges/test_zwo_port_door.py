@@ -117,7 +117,7 @@ def test_a_web_pages_post_is_closed_unexecuted_and_is_never_a_program(server: Al
     assert status["programs"] == [] and status["last_command"] is None
     assert status["turned_away"] == attempts
     assert "not a ZWO command" in status["last_turned_away"]["reason"]
-    assert BRIDGE_KEY not in server.telescopes[0].connected_clients()  # no connection made for them
+    assert BRIDGE_KEY not in server.telescopes[0].connection.clients()  # no connection made for them
     messages = [r.getMessage() for r in caplog.records if r.name == LOGGER]
     assert not any("connected" in m for m in messages), messages
     refusals = [m for m in messages if "closed" in m]

@@ -27,7 +27,7 @@ from tests.faults.conftest import Rig, RigFactory
 from tests.faults.harness import Verdict, report
 from tests.support import AlpacaClient, wait_until
 from tests.support.observatory import AlpacaSimulators
-from tests.telescope.test_telescope import args_for
+from tests.telescope.expectations import args_for
 
 INVALID_OPERATION = 0x40B
 #: Command codes that move the mount or let it move (GOTO, moves, pulses, home, park, tracking on, flip limit).
@@ -332,7 +332,7 @@ def test_starting_while_unsafe_parks_a_mount_nobody_connected(rig_factory: RigFa
     sims.set_safe(False)
     rig = rig_factory(safety=interlock(sims), emulator=FAST, connect=False)
     wait_until(lambda: rig.telescope.motion.parked, 60, "the server to park the mount on its own")
-    wait_until(lambda: INTERLOCK_CLIENT not in rig.telescope.connected_clients(), 10, "the interlock to let go")
+    wait_until(lambda: INTERLOCK_CLIENT not in rig.telescope.connection.clients(), 10, "the interlock to let go")
     assert still(rig), rig.snapshot()
     client = rig.client(7)
     client.command("connected", Connected=True)
@@ -371,7 +371,7 @@ def test_zwo_port_answers_as_the_mount_refuses(rig_factory: RigFactory, sims: Al
     wait_state(main, "unsafe")
     responder = ZwoResponder(rig.telescope)
     session = Session(ClientKey("127.0.0.1:5000", 1))
-    rig.telescope.set_connected(True)  # as the port does for its programs
+    rig.telescope.connection.set_connected(True)  # as the port does for its programs
     before = len(rig.recorder.all())
     assert responder.handle(session, "Sr01:00:00") == "1"
     assert responder.handle(session, "Sd+40*00:00") == "1"

@@ -156,3 +156,9 @@ def test_the_override_and_its_words() -> None:
     assert override_status("") is None and override_status("perhaps") is None
     assert [describe_difference(s) for s in (4.2, -725, 10800, -3 * 86400 - 7200)] == [
         "4.2 s", "12 min 5 s", "3 h 0 min", "3 d 2 h"]
+
+
+def test_a_difference_is_rounded_to_its_last_unit() -> None:
+    """A clock 3 h behind measured over a round trip is 10,799.6 s: "3 h 0 min", never "2 h 59 min"."""
+    assert [describe_difference(s) for s in (10799.6, -3599.7, 59.97, 2 * 86400 - 20)] == [
+        "3 h 0 min", "1 h 0 min", "1 min 0 s", "2 d 0 h"]

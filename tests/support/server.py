@@ -6,7 +6,9 @@ separate emulator process) keep the true one, the way a Raspberry Pi without net
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import subprocess
 import sys
 from collections.abc import Mapping, Sequence
@@ -33,7 +35,8 @@ class ServerProcess:
             self.process = subprocess.Popen(
                 [*wrapper, sys.executable, "-m", "alpaca_zwo", "--port", "0", "--discovery-port", "0",
                  "--host", "127.0.0.1", "--config", str(config_path), "--log-level", "INFO", *args],
-                stdout=subprocess.PIPE, stderr=log_file, text=True, env={**ENV, **(env or {})}, cwd=ROOT)
+                stdout=subprocess.PIPE, stderr=log_file, text=True, env={**ENV, **(env or {})}, cwd=ROOT,
+                start_new_session=True)  # a group of its own: a wrapper (faketime) forks the server as its child
         assert self.process.stdout is not None
         self.lines = OutputLines(self.process.stdout)
         try:
@@ -50,10 +53,16 @@ class ServerProcess:
         return self.log_path.read_text(errors="replace")
 
     def stop(self) -> None:
-        if self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(20)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait(10)
+        """End the server and whatever its wrapper started: the whole process group, so a server that a
+        wrapper forked (faketime does) is never left running after the test."""
+        self._signal_group(signal.SIGTERM)
+        try:
+            self.process.wait(20)
+        except subprocess.TimeoutExpired:
+            self._signal_group(signal.SIGKILL)
+            self.process.wait(10)
+        self._signal_group(signal.SIGKILL)  # the wrapper's child, should the wrapper have gone first
+
+    def _signal_group(self, signum: int) -> None:
+        with contextlib.suppress(ProcessLookupError, PermissionError):  # the group is gone already
+            os.killpg(self.process.pid, signum)
