@@ -54,7 +54,6 @@ from .._exceptions import (
 from ..clients import ClientKey
 from ..config.settings import horizon_altitude_at
 from ..sky import SIDEREAL_DEG_S, PierSide
-from ..zwo import dispatch
 from ..zwo.dispatch import NoReply, Refusal, Verbatim
 from ..zwo.protocol import BY_CODE, CommandMatch, Effect, TrackingState
 from ..zwo.wire_values import (
@@ -127,7 +126,7 @@ class SharedZone:
 
 
 class TelescopeBackend:
-    """One program's ``zwo.dispatch.Backend``: the Telescope, as that program sees the mount.
+    """One program's ``zwo.protocol.Backend``: the Telescope, as that program sees the mount.
 
     Thread-safe as the port uses it: one thread per program uses its backend; what programs share
     (the Telescope, the zone) locks itself.
@@ -162,9 +161,9 @@ class TelescopeBackend:
         """A malformed :SG#/:STa# whose value still reads (``:SG5#``, ``:STa00+5#``) is applied and
         answered with the refusal, as the port has always done (see ``APPLIED_THOUGH_MALFORMED``)."""
         command = match.command
-        assert command.argument is not None  # both rows take one
+        assert command.argument is not None and command.asks is not None  # both rows take one and ask
         with contextlib.suppress(ProtocolError, ValueError):
-            dispatch.ANSWERS[command.code](self, command.argument.parse(match.argument))
+            command.asks(self, command.argument.parse(match.argument))
         return Verbatim(command.reply_text(command.refused))
 
     @staticmethod

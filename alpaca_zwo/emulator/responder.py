@@ -29,7 +29,7 @@ _UNKNOWN = Verbatim(None)
 
 
 class ModelBackend:
-    """A :class:`MountModel` as a ``zwo.dispatch.Backend``: the emulated mount, its firmware's quirks included.
+    """A :class:`MountModel` as a ``zwo.protocol.Backend``: the emulated mount, its firmware's quirks included.
 
     Thread-safe because the model is.
     """
