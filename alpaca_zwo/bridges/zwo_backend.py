@@ -48,7 +48,6 @@ from .._exceptions import (
     InvalidValue,
     MountReplyError,
     Parked,
-    ProtocolError,
     SafetyRefusal,
 )
 from ..clients import ClientKey
@@ -83,10 +82,6 @@ MOVES = {Direction.EAST: (0, 1.0), Direction.WEST: (0, -1.0), Direction.NORTH: (
 #: program pushing the same clock (whole seconds) never truncates the server's.
 TIME_TOLERANCE_S = 1.5
 SITE_TOLERANCE_DEG = 1.5 / 3600.0
-#: Setters the port applies when their text is malformed but still reads as a value, answering the
-#: refusal all the same: the port's behaviour before issue 34, kept byte for byte (the recorded replies
-#: in tests/bridges/zwo_port_replies.json); the mount, and so the emulator, applies nothing then.
-APPLIED_THOUGH_MALFORMED = frozenset({"SG", "STa"})
 #: Commands real firmware does not have (:STR#): no reply, as for any unknown command.
 _UNKNOWN = Verbatim(None)
 
@@ -153,18 +148,7 @@ class TelescopeBackend:
                 self._refuse_guarded(command.code)
             if command.code != "STa":
                 return Verbatim(self.telescope.raw_commands.relay(f":{command.code}{match.argument}#") or None)
-        if command.code in APPLIED_THOUGH_MALFORMED and not match.well_formed:
-            return self._apply_refusing(match)
         return None
-
-    def _apply_refusing(self, match: CommandMatch) -> Verbatim:
-        """A malformed :SG#/:STa# whose value still reads (``:SG5#``, ``:STa00+5#``) is applied and
-        answered with the refusal, as the port has always done (see ``APPLIED_THOUGH_MALFORMED``)."""
-        command = match.command
-        assert command.argument is not None and command.asks is not None  # both rows take one and ask
-        with contextlib.suppress(ProtocolError, ValueError):
-            command.asks(self, command.argument.parse(match.argument))
-        return Verbatim(command.reply_text(command.refused))
 
     @staticmethod
     def _refuse_guarded(code: str) -> NoReturn:

@@ -151,10 +151,10 @@ def test_a_goto_the_telescope_refuses_answers_the_mounts_error_code(rig: Rig) ->
     assert asked(rig, "MS") == 0
 
 
-def test_the_zone_is_the_ports_and_a_malformed_one_still_applies_as_it_always_did(rig: Rig) -> None:
+def test_the_zone_is_the_ports_and_a_malformed_one_changes_nothing(rig: Rig) -> None:
     """:SG# changes only the zone the port's programs see, one for the whole port; the mount keeps the
-    server's. ``:SG5#`` (no sign) answers the refusal yet sets +5: the port's behaviour before issue 34,
-    kept (``zwo_backend.APPLIED_THOUGH_MALFORMED``)."""
+    server's. ``:SG5#`` (no sign) answers the refusal and, as on the mount, changes nothing (before
+    issue 34 the port applied it all the same: a refusal that acted)."""
     zone = SharedZone()
     first, second = rig.backend(5000, zone), rig.backend(5001, zone)
     mount_zone = rig.model.clock_site.utc_offset()
@@ -162,6 +162,6 @@ def test_the_zone_is_the_ports_and_a_malformed_one_still_applies_as_it_always_di
     assert dispatch.answer(first, "SG-03") == "1"
     assert dispatch.answer(second, "GG") == "-03:00#"
     assert dispatch.answer(first, "SG5") == "0"
-    assert dispatch.answer(second, "GG") == "+05:00#"
+    assert dispatch.answer(second, "GG") == "-03:00#"
     assert math.isclose(rig.model.clock_site.utc_offset(), mount_zone)
     assert asked(rig, "SG", since) == 0
