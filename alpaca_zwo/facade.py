@@ -387,6 +387,31 @@ class DeviceFacade:
         """The lowest altitude a GoTo may end at in this azimuth (horizon profile and minimum altitude)."""
         return horizon_altitude_at(self._telescope.settings.limits, azimuth)
 
+    def goto_verdict(self, ra_hours: float, dec_deg: float) -> dict[str, Any]:
+        """Whether a GoTo to this mount's-frame RA/Dec would be refused now, and by what, before it is tried:
+        the Telescope's own limit check (``Telescope.goto_limit``, the one every GoTo passes first, so the
+        page never says fine where the GoTo then refuses), then the state a GoTo needs (connected, unparked).
+        ``limit`` names the limit that blocks (``telescope/pointing.py``), ``says`` is the card's words and
+        ``detail`` the refusal's; ``state`` is "not connected" or "parked" when that is what blocks."""
+        telescope = self._telescope
+        blocked = telescope.goto_limit(ra_hours, dec_deg)
+        if blocked is not None:
+            return {"reachable": False, "limit": blocked.limit, "state": None, "says": blocked.says,
+                    "detail": f"target is {blocked.detail}", "altitude": blocked.altitude,
+                    "azimuth": blocked.azimuth, "after_s": blocked.after_s}
+        verdict: dict[str, Any] = {"reachable": True, "limit": None, "state": None,
+                                   "says": "reachable: above the horizon and limits", "detail": None}
+        try:
+            telescope.connection.require_connected()
+        except AlpacaError as exc:
+            return {**verdict, "reachable": False, "state": "not connected",
+                    "says": "within the limits, but the mount is not connected", "detail": exc.message}
+        if telescope.motion.parked:
+            return {**verdict, "reachable": False, "state": "parked",
+                    "says": "within the limits, but the mount is parked: Unpark first",
+                    "detail": "the mount is parked; unpark it first"}
+        return verdict
+
     def destination_side_of_pier(self, ra_hours: float, dec_deg: float) -> int | None:
         """DestinationSideOfPier for the mount's-frame RA/Dec; None while not connected."""
         side = _quiet(lambda: self._telescope.destination_side_of_pier(ra_hours, dec_deg), None)

@@ -1,9 +1,13 @@
-"""The lanes of a whole-suite run (scripts/run-tests with no test paths): four pytest processes side by side.
+"""The lanes of a whole-suite run (scripts/run-tests with no test paths): five pytest processes side by side.
 
 The suite waits far more than it computes (emulated slews, real-time pulses, ConformU's timed checks:
 about 6 CPU minutes in a 47-minute serial run on two cores), so independent groups overlap well:
 
-- ``main``: every test folder and file but the two below, in the foreground at normal priority.
+- ``main``: every test folder and file but those below, in the foreground at normal priority.
+- ``field``: the emulated nights (tests/motion: slews, flips and guiding at three sites; tests/faults:
+  WiFi stalls and outages, the soak; tests/bridges: Stellarium, INDI and gpsd sessions), in the
+  background at normal priority: the largest share of the suite's waiting, about half of what was
+  one 50-minute main lane, so the two halves wait at the same time.
 - ``conformance``: the ConformU reproduction north of the equator (about 17 minutes, most of it waiting
   on emulated time), in the background at normal priority: its timed checks must not be starved.
 - ``sites``: the ConformU conformance run at Sydney and on the equator (issue 30; about 20 minutes,
@@ -15,7 +19,8 @@ about 6 CPU minutes in a 47-minute serial run on two cores), so independent grou
 
 ``tests/test_ci_lanes.py`` checks that the lanes together collect exactly the whole suite, each test once.
 
-    python3 scripts/lanes.py main|conformance|sites|platform    # one pytest argument per line, for run-tests
+    python3 scripts/lanes.py main|field|conformance|sites|platform    # one pytest argument per line, for run-tests
+    python3 scripts/lanes.py --background                           # the lanes run beside main, one a line
 """
 
 from __future__ import annotations
@@ -26,7 +31,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 #: lane -> the entries of tests/ it runs, or a test file carved out of another lane's entry (that lane
 #: then ignores it); ``main`` takes every other entry.
-SEPARATE = {"conformance": ("tests/conformance",), "sites": ("tests/conformance/test_conformu_sites.py",),
+SEPARATE = {"field": ("tests/motion", "tests/faults", "tests/bridges"), "conformance": ("tests/conformance",),
+            "sites": ("tests/conformance/test_conformu_sites.py",),
             "platform": ("tests/platform",)}
 LANES = ("main", *SEPARATE)
 
@@ -48,6 +54,9 @@ def lanes(root: Path = ROOT) -> dict[str, list[str]]:
 
 
 if __name__ == "__main__":
+    if sys.argv[1:] == ["--background"]:
+        print("\n".join(SEPARATE))
+        sys.exit(0)
     if len(sys.argv) != 2 or sys.argv[1] not in LANES:
         sys.exit(f"usage: python3 scripts/lanes.py {'|'.join(LANES)}")
     print("\n".join(lanes()[sys.argv[1]]))

@@ -269,9 +269,12 @@
     dl.replaceChildren();
     fact(dl, "Alt / Az", hook.fmtDeg(o.altitude) + " / " + hook.fmtAz(o.azimuth));
     fact(dl, "RA / Dec", hook.fmtHours(o.ra) + " / " + hook.fmtDeg(o.dec));
-    const up = o.above_limits;
-    fact(dl, "Limits", up ? "above the horizon and limits" : "below the horizon or limits (" + o.horizon_floor.toFixed(1) + "\u00b0 there)",
-      up ? "yes" : "bad");
+    // The server's verdict, from the very check its GoTo runs first: the limit that blocks, by name
+    // (the server's horizon and minimum altitude, the mount's horizon and stored altitude limits, now and
+    // when the slew would land), or what the mount's state needs; refreshed with the card as the sky turns.
+    const verdict = o.verdict || {};
+    const up = Boolean(verdict.reachable);
+    fact(dl, "Limits", verdict.says || "\u2013", up ? "yes" : "bad");
     times(dl, o);
     fact(dl, "GoTo lands", o.destination_side_of_pier ? "pier " + PIER_WORDS[o.destination_side_of_pier] : "\u2013 (mount not connected)");
     $("btn-goto").classList.toggle("caution", !up);

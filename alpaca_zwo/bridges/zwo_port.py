@@ -2,7 +2,8 @@
 
 INDI's ``indi_lx200am5`` and other ZWO/LX200 drivers that can reach a mount over TCP connect here
 instead of to the mount, and share it with every Alpaca client: what they ask is answered from the
-server's state snapshot (:mod:`.zwo_replies`), what they command goes through the Telescope.
+server's state snapshot, what they command goes through the Telescope (:mod:`.zwo_backend`, behind
+``zwo/dispatch.py``'s command table).
 
 Each program gets a thread, its own :class:`~alpaca_zwo.zwo.request_framer.RequestFramer` (so junk from one
 program is resynchronised without touching the others) and its own target and move speeds. While
@@ -30,13 +31,14 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any
 
-from .._exceptions import AlpacaError
+from .._exceptions import AlpacaError, AlpacaZwoError
 from ..clients import ClientKey, current_client
+from ..zwo import dispatch
+from ..zwo.dispatch import Refusal
 from ..zwo.protocol import match_command
 from ..zwo.request_framer import RequestFramer
 from .admission import DoorLog, Network, NetworkAllowlist, NotZwo, ZwoOpening
-from .zwo_replies import ZwoResponder
-from .zwo_session import Refusal, Session
+from .zwo_backend import Session, SharedZone, TelescopeBackend
 
 if TYPE_CHECKING:
     from ..telescope.device import Telescope
@@ -91,7 +93,7 @@ class _Program:
 
     sock: socket.socket
     address: str
-    session: Session
+    backend: TelescopeBackend  # its session: its own target and move speeds
     since: float = field(default_factory=time.time)
     commands: int = 0
     refusals: int = 0
@@ -102,6 +104,10 @@ class _Program:
     thread: threading.Thread | None = None
     #: False until its first command: until then it is only a connection, not a program.
     identified: bool = False
+
+    @property
+    def session(self) -> Session:
+        return self.backend.session
 
 
 class _Drop(Exception):
@@ -120,7 +126,7 @@ class ZwoPortBridge:
         self.telescope = telescope
         self.host = host
         self._requested_port = port
-        self.responder = ZwoResponder(telescope)
+        self.zone = SharedZone()  # the time zone programs set, one for the whole port as on the mount
         #: ``zwo_port.allowed_networks``, read live; ``local_networks`` says what "local" means.
         self.allowlist = NetworkAllowlist(lambda: telescope.settings.zwo_port.allowed_networks, local_networks)
         self._door_log = DoorLog(log)
@@ -253,7 +259,8 @@ class ZwoPortBridge:
                 # One client key per host, not per connection: a connection storm must not
                 # crowd real clients out of the bounded client registry.
                 host = address.rsplit(":", 1)[0]
-                program = _Program(sock, address, Session(ClientKey(f"zwo-port {host}", 0)))
+                session = Session(ClientKey(f"zwo-port {host}", 0))
+                program = _Program(sock, address, TelescopeBackend(self.telescope, session, self.zone))
                 self._programs[ident] = program
         if full:
             log.warning("ZWO port: %s refused: %d programs already connected (zwo_port.max_clients)",
@@ -356,10 +363,13 @@ class ZwoPortBridge:
             raise _Drop(f"flooding (more than {COMMAND_RATE:.0f} commands/s)")
         self.telescope.registry.touch(program.session.key, "ZWO protocol")
         try:
-            reply = self.responder.handle(program.session, body)
+            reply = dispatch.answer(program.backend, body)
             refused = None
         except Refusal as refusal:
             reply, refused = refusal.reply, refusal.reason
+        except AlpacaZwoError as exc:  # the mount link failed under a command: a missing mount says nothing
+            log.info("ZWO port :%s# failed: %s", body, exc)
+            reply, refused = None, None
         except Exception:  # a bug must not end the program's connection; the mount would just be silent
             log.exception("ZWO port: %s :%s# failed", program.address, body)
             reply, refused = None, None

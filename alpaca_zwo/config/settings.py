@@ -26,6 +26,7 @@ from typing import Any, Literal
 
 from alpaca_zwo._exceptions import ConfigError
 from alpaca_zwo.zwo.firmware import DEFAULT_PRESET, MODELS, PRESETS
+from alpaca_zwo.zwo.protocol import Effect, codes_with
 
 __all__ = [
     "LOCAL_NETWORKS",
@@ -412,8 +413,8 @@ class StellariumSettings:
 
 #: Commands of the shared ZWO port that change the mount for every program (mode, alignment,
 #: firmware-stored settings, BLE pairing, clock): refused unless listed in ``zwo_port.allow_dangerous``.
-ZWO_PORT_DANGEROUS = ("AA", "AP", "NSC", "SOa", "Sp01", "STa", "SLE", "SLD", "SLH", "SLL", "SRl", "SBu",
-                      "SBl", "BS", "SS", "SH")
+#: Read off the command table (``Effect.GUARDED``).
+ZWO_PORT_DANGEROUS = codes_with(Effect.GUARDED)
 
 
 def _dangerous_codes(value: Any) -> tuple[str, ...]:

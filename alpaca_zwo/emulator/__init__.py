@@ -1,8 +1,9 @@
 """A physically faithful emulator of ZWO AM3/AM5/AM5N/AM7 mounts.
 
 ``MountModel`` is the mount (two axes, its own clock and site, tracking, GOTO, guiding, limits,
-firmware variants); ``Responder`` speaks its wire protocol; ``EmulatorServer`` serves it over TCP
-and a pseudo-terminal with baud-rate pacing; ``Faults`` makes the line misbehave on demand.
+firmware variants); ``ModelResponder`` speaks its wire protocol (``zwo/dispatch.py``'s table, the
+model as its backend); ``EmulatorServer`` serves it over TCP and a pseudo-terminal with baud-rate
+pacing; ``Faults`` makes the line misbehave on demand.
 
     model = MountModel(ManualClock(), FirmwareVariant(home_flag="never"))
     with EmulatorServer(model, port=0, baud=0) as server:
@@ -18,7 +19,7 @@ from .clock import ManualClock, ScaledClock
 from .control import ControlServer
 from .faults import Faults
 from .model import MountModel
-from .responder import Responder
+from .responder import ModelResponder
 from .server import EmulatorServer
 
 __all__ = [
@@ -28,8 +29,8 @@ __all__ = [
     "Faults",
     "FirmwareVariant",
     "ManualClock",
+    "ModelResponder",
     "MountModel",
-    "Responder",
     "ScaledClock",
     "preset",
 ]

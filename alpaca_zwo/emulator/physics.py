@@ -21,11 +21,11 @@ from .state import (
     DEC,
     HOME_P,
     HOME_S,
-    HORIZON_TOLERANCE_DEG,
     RA,
     SLEW_STEP_S,
     SNAP_DEG,
     STEADY_STEP_S,
+    TRACKING_HORIZON_SLACK_DEG,
     Hemisphere,
     Pulse,
     Slew,
@@ -326,8 +326,9 @@ class Mechanics:
         return sky.equatorial_to_horizontal(ha, dec, self._site.latitude_deg)[0]
 
     def below_horizon(self) -> bool:
-        """Under the horizon by more than rounding: on the equator home points at the pole, on it."""
-        return self.raw_altitude() < -HORIZON_TOLERANCE_DEG
+        """Under the horizon by more than the firmware's tracking slack: on the equator home points at
+        the pole, on it, and moves from there skim it (``TRACKING_HORIZON_SLACK_DEG``)."""
+        return self.raw_altitude() < -TRACKING_HORIZON_SLACK_DEG
 
     def reported(self) -> tuple[float, float]:
         ha, dec = self.raw_ha_dec()

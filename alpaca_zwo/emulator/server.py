@@ -27,7 +27,7 @@ from typing import Any
 from ..zwo.request_framer import RequestFramer
 from .faults import FaultEvent, Faults
 from .model import MountModel
-from .responder import Responder
+from .responder import ModelResponder
 
 __all__ = ["EmulatorServer", "pty_support_error"]
 
@@ -369,7 +369,7 @@ class EmulatorServer:
         if pty and (reason := pty_support_error()):
             raise OSError(errno.ENOSYS, reason)
         self.model = model
-        self.responder = Responder(model)
+        self.responder = ModelResponder(model)
         self.host = host
         self.baud = int(baud)
         self._want_port = port

@@ -39,6 +39,11 @@ STEADY_STEP_S = 1.0  # exact integration allows long steps otherwise; bounds hor
 SNAP_DEG = 0.3 / 3600.0  # a slewing axis this close to its target locks onto it
 AT_HOME_DEG = 1e-6
 HORIZON_TOLERANCE_DEG = 1e-6  # rounding of an altitude computed as exactly 0 (the pole, on the equator)
+#: Tracking stops (and ``:Te#`` is refused, e5) only this far under the horizon: on the equator home is the
+#: pole on the horizon, and a Dec move from there follows an hour circle that skims it, dipping by the
+#: move times the RA axis' turn from HA ±6 h (docs/southern.md, assumption 13: the firmware's slack is
+#: not documented). The server's manual-move margin along a limit is the same (motion/limits.py).
+TRACKING_HORIZON_SLACK_DEG = 0.5
 PULSE_MAX_MS = 3000
 SYNC_MAX_DEG = 20.0
 SYNC_POLE_DEG = 85.0

@@ -31,8 +31,9 @@ LIMIT_TICKS = 2.0
 CLIMB_TOLERANCE_DEG = 1e-6
 #: A mount at the limit (within this of it) may move along it, this far below at most: on the equator
 #: home points at the pole on the horizon, where a Dec move follows an hour circle that dips below it by
-#: the RA axis' distance from HA ±6 h (ConformU's MoveAxis test from home). 36″: nothing is in the way.
-LIMIT_MARGIN_DEG = 0.01
+#: the move times the RA axis' turn from HA ±6 h (ConformU's MoveAxis test from home, after its RA moves
+#: and tracking there: 0.02° measured). Half a degree along the horizon: nothing is in the way.
+LIMIT_MARGIN_DEG = 0.5
 
 
 def _travel(velocity: float, react: float) -> float:

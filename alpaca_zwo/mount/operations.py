@@ -28,11 +28,11 @@ from .._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolEr
 from ..sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S, PierSide
 from ..zwo import protocol, wire_values
 from ..zwo.link import Link, Priority
-from ..zwo.protocol import TrackingState
+from ..zwo.protocol import Effect, TrackingState
 from ..zwo.wire_values import Direction, MeridianSettings, MountMode, MountStatus, TrackRate
 from .estimator import PositionEstimator, SyncRemainder, wire_position
 from .pier import DecSense, PierSides
-from .settings_cache import DEFAULT_REFRESH_S, SETTINGS_CHANGING, SettingsCache
+from .settings_cache import DEFAULT_REFRESH_S, SettingsCache
 from .state import MountInfo, MountSettings, MountState
 from .timekeeping import TimeKeeper
 
@@ -45,6 +45,7 @@ TRACK_RATE_FACTORS = {
     TrackRate.LUNAR: 1.0 - 1.0 / 27.321661 * (SIDEREAL_DAY_S / 86400.0),
 }
 PULSE_CHUNK_MS = 3000
+CLOCK_POLL_S = 0.01  # mount seconds between readings of :GL# while waiting for its second to turn
 
 
 def utc_now() -> datetime:
@@ -345,6 +346,9 @@ class Mount:
         reading, at = first, before - 0.5  # on average, its second began half a second ago
         deadline = before + 1.5  # mount seconds: one tick of its clock and a margin
         while precise and self.monotonic() < deadline:
+            # Paced: the instant is wanted to a few milliseconds, and a fast link (WiFi, a socket) would
+            # otherwise carry thousands of readings of the same second, crowding out everyone else's.
+            time.sleep(CLOCK_POLL_S / self._clock_rate)
             reading = self._exec(protocol.query("GL"), priority)
             after = self.monotonic() - reply_s * self._clock_rate
             if reading != first:
@@ -742,9 +746,9 @@ class Mount:
         try:
             reply = self.link.exchange(protocol.Request(command, f":{body}#"), Priority.COMMAND)
         finally:
-            if command.code in SETTINGS_CHANGING:
+            if command.has(Effect.SETTING):
                 self.settings_cache.mark_stale()
-        if command.code in _READING_CHANGING:
+        if command.has(Effect.READINGS):
             self._raw_changed_readings(command.code, before)
         return reply
 
@@ -888,10 +892,10 @@ class Mount:
         try:
             return self.link.execute(req, priority, guard=guard)
         finally:
-            if req.command.code in _STATUS_CHANGING:
+            if req.command.has(Effect.STATUS):
                 with self._publish_lock:
                     self._epoch += 1
-            if req.command.code in SETTINGS_CHANGING:
+            if req.command.has(Effect.SETTING):
                 self.settings_cache.mark_stale()
 
     def _send_on_idle_line(self, req: protocol.Request, guard: Guard | None = None) -> float:
@@ -900,7 +904,7 @@ class Mount:
         try:
             return self._mount_time(self.link.send_on_idle_line(req, guard=guard))
         finally:
-            if req.command.code in _STATUS_CHANGING:
+            if req.command.has(Effect.STATUS):
                 with self._publish_lock:
                     self._epoch += 1
 
@@ -931,17 +935,6 @@ class Mount:
         with self._estimator_lock:
             self._estimator.set_ra_rate(self._ra_drift(), now)
             self._estimator.set_dec_rate(self._drift[1], now)
-
-
-#: Commands that change what a poll reads (position, :GU#, :GAT#, :Gm#); pulses and queries do not.
-_STATUS_CHANGING = frozenset(
-    {"Te", "Td", "MS", "SMeq", "hC", "hP", "Q", "CM", "SMMC", "TQ", "TS", "TL", "Spu", "AP", "AA",
-     "Me", "Mw", "Mn", "Ms", "Qe", "Qw", "Qn", "Qs", "St", "Sg", "SG", "SL", "SC", "NSC"}
-)
-
-
-#: Commands after which a reading means something else (alignment, clock, site, sidereal time, DST).
-_READING_CHANGING = frozenset({"CM", "SMMC", "NSC", "St", "Sg", "SG", "SL", "SC", "SS", "SH"})
 
 
 def _close(a: tuple[float, float], b: tuple[float, float]) -> bool:

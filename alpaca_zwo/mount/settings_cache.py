@@ -26,8 +26,6 @@ from .state import MountSettings
 
 #: Seconds between periodic re-reads: how late a change made by another program (WiFi) may show.
 DEFAULT_REFRESH_S = 60.0
-#: Commands that change a setting stored in the mount (what ``Mount.read_settings`` reads, and the mode).
-SETTINGS_CHANGING = frozenset({"STa", "SLE", "SLD", "SLH", "SLL", "SRl", "SBu", "Rg", "SH", "AP", "AA"})
 
 
 class SettingsCache:

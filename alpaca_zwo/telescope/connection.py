@@ -6,6 +6,8 @@ Locks, both owned by :class:`Connection` (motion has its own, see ``motion/super
 - ``_clients_lock`` guards the client set, the connecting flag and the linger timer; it is never
   held across I/O, so a GET never waits on the serial line.
 - ``_link_lock`` (re-entrant) serialises opening and closing the mount link; it is held across I/O.
+- ``_settings_read_lock`` makes programs asking for the mount's stored settings at once share one read
+  (:meth:`Connection.mount_settings`); held across that read, it takes no other lock.
 
 Lock order: ``_link_lock`` → ``_clients_lock`` (the linger expiry holds both), never the reverse.
 """
@@ -31,6 +33,7 @@ from ..clients import ClientKey, current_client
 from ..config.settings import Settings
 from ..motion import MotionSupervisor
 from ..mount.operations import Mount
+from ..mount.state import MountSettings
 from ..zwo.wire_values import MeridianSettings, TrackRate
 
 log = logging.getLogger(__name__)
@@ -58,6 +61,7 @@ class Connection:
         self._clients: set[ClientKey] = set()
         self._connecting = False
         self._linger_timer: threading.Timer | None = None
+        self._settings_read_lock = threading.Lock()
         #: The mount's meridian setting as last read or written: DestinationSideOfPier and pier flips
         #: depend on it.
         self.meridian = MeridianSettings()
@@ -217,3 +221,16 @@ class Connection:
             self.mount.set_tracking_rate(TrackRate.SIDEREAL)  # "start up with a known tracking rate"
         except (LinkError, ProtocolError) as exc:
             log.warning("could not select the sidereal rate: %s", exc)
+
+    # -- the mount's stored settings, for the shared ZWO port (bridges/zwo_backend.py) -------------
+
+    def mount_settings(self) -> MountSettings:
+        """The mount-stored settings from the Mount's one shared cache (the page and the Actions read it
+        too): read from the mount only when never read, marked stale by a command since, or a minute
+        old; that read refills the cache for everyone."""
+        with self._settings_read_lock:
+            cache = self.mount.settings_cache
+            cached = cache.value
+            if cached is None or cache.due():
+                return self.mount.read_settings()
+            return cached

@@ -43,6 +43,7 @@ from ..config.store import SettingsStore
 from ..motion import Motion, MotionKind, MotionSupervisor
 from ..motion.flip import PierFlips, side_setting
 from ..motion.interlock import Interlock
+from ..motion.landing import SLEW_S_FIXED, SLEW_S_PER_DEG
 from ..mount.operations import Mount
 from ..mount.state import MountState
 from ..sky import PierSide
@@ -60,6 +61,8 @@ log = logging.getLogger(__name__)
 LINGER_S = 60.0
 #: During a link outage, Connected stays true (last-known state served with its age) this long.
 LINK_GRACE_S = 30.0
+#: How far the axes turn in a pier flip (SideOfPier write), for when it lands.
+FLIP_TRAVEL_DEG = 180.0
 GUIDE_DIRECTIONS = {0: Direction.NORTH, 1: Direction.SOUTH, 2: Direction.EAST, 3: Direction.WEST}
 
 
@@ -268,7 +271,7 @@ class Telescope:
             raise InvalidOperation(
                 f"the mount cannot take {side} here: its axes point at hour angle {ha:+.2f} h, and a German mount "
                 f"reaches {side} there only within 15° of the meridian (its meridian limit's range)")
-        pointing.check_above_limits(self.settings, self.clock.lst(), ra, dec)
+        self._check_goto(ra, dec, FLIP_TRAVEL_DEG)
         self.flips.goto(ra, dec, side_setting(limit))
 
     def _pier(self) -> PierSide:
@@ -346,8 +349,39 @@ class Telescope:
         return self._goto(ra, dec)
 
     def _goto(self, ra: float, dec: float) -> Motion:
-        pointing.check_above_limits(self.settings, self.clock.lst(), ra, dec)
-        return self.flips.goto(ra, dec, self._keep_east_setting(ra))
+        self._check_goto(ra, dec)
+        try:
+            return self.flips.goto(ra, dec, self._keep_east_setting(ra))
+        except DriverError as exc:
+            if exc.number == ERR_MOUNT_REFUSED:  # e5#/e6#: its limits may have changed over WiFi since read
+                self.mount.settings_cache.mark_stale()
+            raise
+
+    def goto_limit(self, ra: float, dec: float, travel_deg: float | None = None) -> pointing.Blocked | None:
+        """The one limit check every GoTo to a sky position passes first (``pointing.goto_blocked``), and
+        what the setup page shows before one: the server's horizon and minimum altitude, the mount's horizon
+        and its stored altitude limits, now and through the slew's landing. ``travel_deg`` is how far the
+        slew goes (default: from where the mount points); it sets when the landing is."""
+        if travel_deg is None:
+            here = self.mount.position()
+            travel_deg = 0.0 if here is None else sky.angular_separation(ra, dec, *here)
+        slew_s = SLEW_S_FIXED + travel_deg * SLEW_S_PER_DEG
+        return pointing.goto_blocked(self.settings, self._mount_altitude_limits(), self.clock.lst(), ra, dec, slew_s)
+
+    def _check_goto(self, ra: float, dec: float, travel_deg: float | None = None) -> None:
+        blocked = self.goto_limit(ra, dec, travel_deg)
+        if blocked is not None:
+            raise InvalidValue(f"target is {blocked.detail}")
+
+    def _mount_altitude_limits(self) -> pointing.MountAltitudeLimits | None:
+        """The altitude limits stored in the mount as last read (``mount/settings_cache.py``: no exchange),
+        None when they are off or were never read; the mount refuses a GOTO outside them (``e6#``)."""
+        stored = self.mount.settings
+        if stored is None or stored.limits_enabled is not True:
+            return None
+        lower = 0.0 if stored.lower_limit is None else float(stored.lower_limit)
+        upper = 90.0 if stored.upper_limit is None else float(stored.upper_limit)
+        return pointing.MountAltitudeLimits(lower, upper)
 
     def _keep_east_setting(self, ra: float) -> MeridianSettings | None:
         """The temporary limit that keeps a mount on pierEast there past the meridian (sky.kept_goto_side),
@@ -372,7 +406,8 @@ class Telescope:
         self._require_unparked("SlewToAltAzAsync")
         lst = self.clock.lst()
         ha, dec = sky.horizontal_to_equatorial(altitude, azimuth, self.settings.site.latitude)
-        pointing.check_above_limits(self.settings, lst, sky.ra_from_hour_angle(lst, ha), dec)
+        # A point fixed to the ground: where it is now is where the slew lands.
+        pointing.check_goto(self.settings, self._mount_altitude_limits(), lst, sky.ra_from_hour_angle(lst, ha), dec)
         tracking = bool(self.mount.state.tracking and self.mount.state.tracking.on)
         # With tracking off the pointing is frozen on the Alt/Az at the landing instant; with it on,
         # the slew ends at the instant the pointing passes the Alt/Az, and tracking carries on.

@@ -1,7 +1,9 @@
-"""The Telescope's raw commands: CommandBlind, CommandBool and CommandString.
+"""The Telescope's raw commands: CommandBlind, CommandBool and CommandString, and the shared ZWO
+port's relay.
 
 Off unless ``server.allow_raw_commands`` is set, because a raw command bypasses every safety check
-(horizon, limits, the observatory interlock, the motion supervisor's bookkeeping).
+(horizon, limits, the observatory interlock, the motion supervisor's bookkeeping). The relay has its
+own switch: the shared port sends only the commands ``zwo_port.allow_dangerous`` lets through.
 """
 
 from __future__ import annotations
@@ -43,3 +45,10 @@ class RawCommands:
 
     def command_string(self, command: str, raw: bool) -> str:
         return self._send(command).rstrip("#")
+
+    def relay(self, command: str) -> str:
+        """Send ``command`` (``:XX…#``) as it is and return the mount's raw reply: a command that changes
+        the mount for every program, which the server's owner let the shared ZWO port pass
+        (``zwo_port.allow_dangerous``, checked by the port). The Mount marks what it changes (stored
+        settings, readings) as after any command; a link failure raises, and the port stays silent."""
+        return self.mount.raw(command)

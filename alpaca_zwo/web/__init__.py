@@ -19,7 +19,7 @@ from ..facade import FacadeProvider
 from .commands import ActionResource
 from .context import WebContext
 from .files import DeviceSetupPage, RootRedirect, SetupPage, StaticFiles, static_dir
-from .goto import GotoResource, ObjectDetails, ObjectSearch, SyncResource
+from .goto import GotoResource, GotoVerdict, ObjectDetails, ObjectSearch, SyncResource
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
 from .observatory import SafetyDiscoverResource, SafetyResource
@@ -56,6 +56,7 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/objects", ObjectSearch(web)),
         ("/setup/api/telescope/{number}/object", ObjectDetails(web)),
         ("/setup/api/telescope/{number}/goto", GotoResource(web)),
+        ("/setup/api/telescope/{number}/goto/verdict", GotoVerdict(web)),
         ("/setup/api/telescope/{number}/sync", SyncResource(web)),
         ("/setup/api/telescope/{number}/sky", SkyResource(web)),
         ("/setup/api/telescope/{number}/trace.txt", TraceText(web)),

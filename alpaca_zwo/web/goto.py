@@ -4,13 +4,16 @@
 site and the server's clock now, ``POST …/goto`` and ``POST …/sync`` point at it or sync on it. The
 catalogue place becomes the mount's frame here (topocentric apparent, ``objects.apparent``); the
 slew and the sync are then the Telescope's own SlewToCoordinatesAsync / SyncToCoordinates through
-the facade, so the horizon limits, park state and every refusal are the Alpaca API's. ``objects`` (and
+the facade, so the horizon limits, park state and every refusal are the Alpaca API's. The card's verdict
+(``…/object``'s ``verdict``, ``GET …/goto/verdict?ra=&dec=``) is the check that GoTo runs first
+(``DeviceFacade.goto_verdict``), so the page never says fine where the GoTo refuses. ``objects`` (and
 with it PyEphem and OpenNGC) is imported on the first request, never at server start.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from datetime import datetime
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
@@ -79,6 +82,7 @@ def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
     rise/transit/set instants in UTC and in the site's zone (``objects.site_zone``), with its name."""
     place = _place(device, obj)
     floor = device.horizon_floor(place.azimuth)
+    verdict = device.goto_verdict(place.ra_hours, place.dec_deg)  # the GoTo's own check (POST …/goto)
     side = device.destination_side_of_pier(place.ra_hours, place.dec_deg)
     now = device.utc_now()
     zone: SiteZone = _objects().site_zone(device.site()[1], now)
@@ -86,7 +90,7 @@ def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
         **obj.to_json(),
         "ra": place.ra_hours, "dec": place.dec_deg, "frame": "topocentric apparent (equinox of date)",
         "altitude": place.altitude, "azimuth": place.azimuth,
-        "horizon_floor": floor, "above_limits": place.altitude >= floor,
+        "horizon_floor": floor, "above_limits": verdict["limit"] is None, "verdict": verdict,
         "rise": _time(place.rise), "transit": _time(place.transit), "set": _time(place.set),
         "site_zone": zone.label(now), "site_zone_source": zone.source,
         "site_times": {"rise": _site_time(place.rise, zone), "transit": _site_time(place.transit, zone),
@@ -121,6 +125,39 @@ class ObjectDetails(Resource):
         with api_errors(resp):
             device = self.web.device(number)
             send(resp, describe(device, _resolve(_query(req, "id"))))
+
+
+def _coordinate(req: falcon.Request, name: str, unit: str, low: float, high: float, example: str,
+                high_included: bool) -> float:
+    """One decimal coordinate of the query, in range: a clear 400 for anything else."""
+    raw = req.get_param(name)
+    if not isinstance(raw, str) or not raw.strip():
+        raise ApiError(400, f"{name}: give {unit} as a decimal number, such as {name}={example}")
+    try:
+        value = float(raw) if len(raw) <= 40 and "_" not in raw else math.nan
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise ApiError(400, f"{name} must be {unit} as a decimal number, such as {name}={example}, "
+                            f"not {raw[:40]!r}")
+    if not (low <= value <= high) or (value == high and not high_included):
+        span = f"{low:g} to {high:g}" if high_included else f"{low:g} to under {high:g}"
+        raise ApiError(400, f"{name} {value:g} is outside {span} {unit}")
+    return value
+
+
+class GotoVerdict(Resource):
+    """``GET /setup/api/telescope/{number}/goto/verdict?ra=&dec=``: would a GoTo to this RA (hours) and Dec
+    (degrees), topocentric apparent of date as the object card gives them, be refused now, and by which
+    limit? ``DeviceFacade.goto_verdict``: the check the GoTo itself runs first. The object card gets the
+    same verdict in its description (``describe``)."""
+
+    def on_get(self, req: falcon.Request, resp: falcon.Response, number: str) -> None:
+        with api_errors(resp):
+            device = self.web.device(number)
+            ra = _coordinate(req, "ra", "hours", 0.0, 24.0, "5.5881", False)
+            dec = _coordinate(req, "dec", "degrees", -90.0, 90.0, "-5.391", True)
+            send(resp, {"ra": ra, "dec": dec, **device.goto_verdict(ra, dec)})
 
 
 class _Pointing(Resource):

@@ -17,7 +17,7 @@ from collections.abc import Callable
 import pytest
 
 from alpaca_zwo import sky
-from alpaca_zwo.emulator import EmulatorServer, FirmwareVariant, ManualClock, MountModel, Responder
+from alpaca_zwo.emulator import EmulatorServer, FirmwareVariant, ManualClock, ModelResponder, MountModel
 from alpaca_zwo.sky import SIDEREAL_DEG_S
 from alpaca_zwo.zwo import protocol
 from alpaca_zwo.zwo.wire_values import MountMode
@@ -56,7 +56,7 @@ def _axes_match_pointing(model: MountModel) -> None:
 def test_mode_switch_takes_effect_only_after_a_power_cycle(clock: ManualClock) -> None:
     """§2.8: ``:AA#``/``:AP#`` answer nothing and need a restart; §5.3: the mode survives power cycles."""
     model = MountModel(clock)
-    mount = Responder(model)
+    mount = ModelResponder(model)
     assert mount.handle("AA") is None
     assert mount.handle("GU").rstrip("#").rstrip("0123456789") == "nNG"  # not yet
     model.power_cycle()
@@ -103,7 +103,7 @@ def test_tracking_answers_e7_until_time_and_site_are_set(mount: MountClient, clo
 
 def test_equatorial_mode_tracks_without_time_and_site(clock: ManualClock) -> None:
     """The e7 rule is alt-az only (§2.4): an EQ mount at power-up reads ``0#`` and can track."""
-    mount = Responder(MountModel(clock))
+    mount = ModelResponder(MountModel(clock))
     assert mount.handle("GAT") == "0#"
     assert mount.handle("Te") == "1"
 

@@ -18,11 +18,11 @@ from typing import Any
 import pytest
 
 from alpaca_zwo.alpaca.members import DEVICE_MEMBERS
-from alpaca_zwo.bridges.zwo_replies import ZwoResponder
-from alpaca_zwo.bridges.zwo_session import Session
+from alpaca_zwo.bridges.zwo_backend import Session, SharedZone, TelescopeBackend
 from alpaca_zwo.clients import ClientKey
 from alpaca_zwo.config.settings import EmulatorSettings, SafetySettings
 from alpaca_zwo.observatory.response import INTERLOCK_CLIENT
+from alpaca_zwo.zwo import dispatch
 from tests.faults.conftest import Rig, RigFactory
 from tests.faults.harness import Verdict, report
 from tests.support import AlpacaClient, wait_until
@@ -369,21 +369,20 @@ def test_zwo_port_answers_as_the_mount_refuses(rig_factory: RigFactory, sims: Al
     wait_state(main, "safe")
     sims.set_safe(False)
     wait_state(main, "unsafe")
-    responder = ZwoResponder(rig.telescope)
-    session = Session(ClientKey("127.0.0.1:5000", 1))
+    backend = TelescopeBackend(rig.telescope, Session(ClientKey("127.0.0.1:5000", 1)), SharedZone())
     rig.telescope.connection.set_connected(True)  # as the port does for its programs
     before = len(rig.recorder.all())
-    assert responder.handle(session, "Sr01:00:00") == "1"
-    assert responder.handle(session, "Sd+40*00:00") == "1"
+    assert dispatch.answer(backend, "Sr01:00:00") == "1"
+    assert dispatch.answer(backend, "Sd+40*00:00") == "1"
     replies = {}
     for body in ("MS", "Spu", "Te", "Me", "Mgn0500", "hC"):
         try:
-            replies[body] = responder.handle(session, body)
+            replies[body] = dispatch.answer(backend, body)
         except Exception as exc:  # Refusal carries the reply the mount would send
             replies[body] = getattr(exc, "reply", repr(exc))
     assert replies == {"MS": "e4#", "Spu": "0", "Te": "0", "Me": None, "Mgn0500": None, "hC": None}, replies
     assert not motion_sent(rig, before), motion_sent(rig, before)
-    assert responder.handle(session, "Q") is None
+    assert dispatch.answer(backend, "Q") is None
 
 
 def test_page_refuses_motion_and_shows_the_state(rig_factory: RigFactory, sims: AlpacaSimulators) -> None:

@@ -22,7 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from alpaca_zwo._exceptions import LinkTimeout, MountReplyError, ProtocolError
-from alpaca_zwo.emulator import ManualClock, MountModel, Responder
+from alpaca_zwo.emulator import ManualClock, ModelResponder, MountModel
 from alpaca_zwo.zwo import protocol as p
 from alpaca_zwo.zwo import request_framer
 from alpaca_zwo.zwo.link import Link
@@ -39,7 +39,7 @@ class JunkMount:
     gap_s = 0.0
 
     def __init__(self) -> None:
-        self.responder = Responder(MountModel(ManualClock(), initialized=True))
+        self.responder = ModelResponder(MountModel(ManualClock(), initialized=True))
         self.listener = socket.create_server(("127.0.0.1", 0))
         self.port = self.listener.getsockname()[1]
         self.junk = b""
@@ -146,7 +146,7 @@ class TimedLine:
     methods it uses on any pyserial port.
     """
 
-    def __init__(self, responder: Responder) -> None:
+    def __init__(self, responder: ModelResponder) -> None:
         self.responder = responder
         self.timeout = 0.05
         self.junk = b""
@@ -208,7 +208,7 @@ def split_link() -> Iterator[tuple[Link, TimedLine]]:
     model = MountModel(ManualClock(), initialized=True)
     model.clock_site.set_latitude(51.5)
     model.clock_site.set_longitude(0.0)
-    line = TimedLine(Responder(model))
+    line = TimedLine(ModelResponder(model))
     link = Link("timed://", timeout=0.25, opener=lambda _url, **_kw: line)
     link.open()
     link.expect_probe_reply("AM5")

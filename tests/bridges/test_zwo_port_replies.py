@@ -1,0 +1,24 @@
+"""The shared ZWO port answers every ZWO command, well formed or not, with the bytes it answered
+before the command set was put in one table (issue 34), and refuses the same ones:
+``zwo_port_replies.json``, recorded from the tree before that change by
+``python -m tests.support.zwo_capture port``.
+
+Seven configurations (both mount modes, a northern and a southern site, guarded commands refused,
+all allowed or some, firmware without the meridian settings); over the port's real socket, on a
+Telescope whose clock is the emulator's frozen universe, so the bytes are the same on every run.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.support import zwo_capture
+
+
+@pytest.mark.parametrize("name", list(zwo_capture.PORT_CONFIGS))
+def test_the_port_answers_as_recorded(name: str) -> None:
+    recorded = zwo_capture.read(zwo_capture.PORT_FILE)[name]
+    answered = zwo_capture.capture_port(name).rows
+    assert [row["request"] for row in answered] == [row["request"] for row in recorded]
+    for ours, theirs in zip(answered, recorded, strict=True):
+        assert ours == theirs, ours["request"]
