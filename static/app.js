@@ -62,21 +62,32 @@
 
   // ---------------------------------------------------------------- messages
 
+  // Messages are toasts in the dock (index.html) above STOP: they never push a control. A success clears
+  // the errors shown before it (the situation they described has changed: the log keeps them all);
+  // a success fades after a few seconds, an error stays until dismissed or the next success.
   function message(text, kind) {
+    const area = $("messages");
+    const type = kind || "error";
+    if (type === "info") for (const old of area.querySelectorAll(".msg.error")) old.remove();
+    for (const old of area.querySelectorAll(".msg")) {
+      if (old.dataset.text === text) old.remove(); // the same words again: shown once, as the newest
+    }
     const box = document.createElement("div");
-    box.className = "msg " + (kind || "error");
+    box.className = "msg " + type;
+    box.dataset.text = text;
+    if (type === "error") box.setAttribute("role", "alert");
     const span = document.createElement("span");
     span.textContent = text;
     const close = document.createElement("button");
     close.type = "button";
     close.textContent = "\u00d7";
+    close.setAttribute("aria-label", "Dismiss");
     close.title = "Dismiss";
     close.addEventListener("click", () => box.remove());
     box.append(span, close);
-    const area = $("messages");
     area.append(box);
     while (area.children.length > 4) area.firstChild.remove();
-    if (kind === "info") setTimeout(() => box.remove(), 3500);
+    if (type === "info") setTimeout(() => box.remove(), 3500);
   }
 
   // Run a control; show its error, refresh the status at once so the effect is visible.
@@ -644,18 +655,26 @@
     speed.value = "20";
   }
 
+  // STOP says whether it reached the mount: the server answers only once the stop was written to it.
+  async function stopMount() {
+    stopJog();
+    try {
+      await action("abort");
+      message("Stopped: the mount acknowledged.", "info");
+    } catch (err) {
+      message("STOP: " + err.message, "error"); // the server says whether it reached the mount
+    }
+    poll(true);
+  }
+
   function bindControls() {
-    // STOP says whether it reached the mount: the server answers only once the stop was written to it.
-    $("btn-stop").addEventListener("click", async () => {
-      stopJog();
-      try {
-        await action("abort");
-        message("Stopped: the mount acknowledged.", "info");
-      } catch (err) {
-        message("STOP: " + err.message, "error"); // the server says whether it reached the mount
-      }
-      poll(true);
-    });
+    $("btn-stop").addEventListener("click", stopMount);
+    // Escape stops the mount from anywhere on the page, whatever has focus (a text field, the chart, a
+    // list of matches): listened for before anything else, and never swallowed, so the same key still
+    // closes the list it was pressed in. Stopping is the safe reading of a key pressed in a hurry.
+    window.addEventListener("keydown", (ev) => {
+      if (ev.key === "Escape" && !ev.repeat) stopMount();
+    }, true);
     $("btn-connect").addEventListener("click", () => run("Mount connected.", () => action("connect")));
     $("btn-disconnect").addEventListener("click", () => run("Released the mount.", () => action("disconnect")));
     $("btn-park").addEventListener("click", () => run("Parking\u2026", () => action("park")));
@@ -736,6 +755,7 @@
     $("park-dec").value = Number(s.park.dec_deg.toFixed(4));
     $("h-min").value = s.limits.min_altitude_deg;
     $("h-profile").value = s.limits.horizon.map((p) => p[0] + " " + p[1]).join("\n");
+    if (s.time) $("t-source").value = s.time.source;
     $("s-watchdog").value = s.safety.moveaxis_watchdog_s;
     $("s-shutdown").value = s.safety.on_shutdown;
     $("o-monitor").value = s.safety.monitor;
@@ -874,6 +894,9 @@
   function bindSettings() {
     $("form-site").addEventListener("submit", saveSettings("Site saved and sent to the mount.", () => ({
       site: { latitude: num("site-lat"), longitude: num("site-lon"), elevation: num("site-elev") },
+    })));
+    $("form-time").addEventListener("submit", saveSettings("Time source saved (in effect now).", () => ({
+      time: { source: $("t-source").value },
     })));
     $("form-meridian").addEventListener("submit", saveSettings("Meridian settings saved.", () => ({
       meridian: { track_after: $("mer-track").checked, limit_degrees: num("mer-limit") },
@@ -1019,23 +1042,56 @@
 
   // ---------------------------------------------------------------- start
 
+  // Night mode and the dimmer: night.js put the stored choice on <html> before the first paint; these
+  // keep the button, the slider and storage in step with it.
   function bindNight() {
+    const root = document.documentElement;
     const button = $("btn-night");
-    const apply = (on) => {
-      document.documentElement.classList.toggle("night", on);
-      button.setAttribute("aria-pressed", String(on));
+    const store = (key, value) => {
+      try { localStorage.setItem(key, value); } catch (_) { /* not kept */ }
     };
     let stored = null;
     try { stored = localStorage.getItem("alpaca-zwo-night"); } catch (_) { /* storage disabled */ }
-    apply(stored === "1");
+    if (stored === "1") root.classList.add("night"); // night.js did this before the first paint, unless it failed to load
+    button.setAttribute("aria-pressed", String(root.classList.contains("night")));
     button.addEventListener("click", () => {
-      const on = !document.documentElement.classList.contains("night");
-      apply(on);
-      try { localStorage.setItem("alpaca-zwo-night", on ? "1" : "0"); } catch (_) { /* not kept */ }
+      const on = !root.classList.contains("night");
+      root.classList.toggle("night", on);
+      button.setAttribute("aria-pressed", String(on));
+      store("alpaca-zwo-night", on ? "1" : "0");
+    });
+    const dim = $("dim");
+    const setDim = (percent) => {
+      if (percent >= 100) root.style.removeProperty("--dim");
+      else root.style.setProperty("--dim", String(percent / 100));
+      root.classList.toggle("dimmed", percent < 100);
+      dim.value = String(percent);
+      dim.setAttribute("aria-valuetext", percent + "%");
+    };
+    let level = 100;
+    try { level = Number(localStorage.getItem("alpaca-zwo-dim") || 100); } catch (_) { /* storage disabled */ }
+    setDim(level >= 20 && level <= 100 ? level : 100);
+    dim.addEventListener("input", () => {
+      setDim(Number(dim.value));
+      store("alpaca-zwo-dim", dim.value);
     });
   }
 
+  // The page's end is padded by the bar's height as it is now (it grows on a phone while a motion line
+  // shows), so the last control can always be scrolled clear of it; nothing above moves.
+  function padForTheBar() {
+    const bar = document.querySelector(".stop-bar");
+    const pad = () => {
+      const px = Math.ceil(bar.getBoundingClientRect().height) + 8 + "px";
+      document.body.style.paddingBottom = px;
+      document.documentElement.style.scrollPaddingBottom = px;
+    };
+    if (window.ResizeObserver) new ResizeObserver(pad).observe(bar);
+    pad();
+  }
+
   async function start() {
+    padForTheBar();
     bindNight();
     bindTurn();
     orient(0);

@@ -113,17 +113,17 @@
       li.setAttribute("role", "option");
       li.id = "find-opt-" + i;
       li.setAttribute("aria-selected", String(i === hs.active));
-      const b = document.createElement("button");
-      b.type = "button";
-      b.tabIndex = -1;
-      b.textContent = matchText(m);
-      b.addEventListener("click", () => select(m.id));
-      li.append(b);
+      // The option itself takes the tap (a button inside an option is a control inside a control: axe's
+      // nested-interactive); the keyboard stays in the search field (arrows, Enter), as a combobox's does.
+      li.textContent = matchText(m);
+      li.addEventListener("click", () => select(m.id));
       list.append(li);
     });
     const open = hs.matches.length > 0;
     show("find-list", open);
     $("find").setAttribute("aria-expanded", String(open));
+    if (open && hs.active >= 0) $("find").setAttribute("aria-activedescendant", "find-opt-" + hs.active);
+    else $("find").removeAttribute("aria-activedescendant");
   }
 
   async function search(text) {
@@ -200,7 +200,8 @@
 
   // ------------------------------------------------------------------ selection
 
-  async function select(id) {
+  // from: "chart" when tapped or chosen on the sky chart (a phone then shows the card as a sheet over the page).
+  async function select(id, from) {
     hs.matches = [];
     renderMatches();
     cancelConfirm();
@@ -209,6 +210,7 @@
       hs.selected = obj;
       $("find").value = obj.name;
       renderSelection();
+      placeCard(from === "chart" && PHONE.matches);
       document.dispatchEvent(new CustomEvent("alpaca-zwo-selected", { detail: obj }));
     } catch (err) {
       setFindNote(err.message);
@@ -347,6 +349,7 @@
     const box = $("arrival");
     box.textContent = text;
     box.className = "arrival" + (cls ? " " + cls : "") + (text ? "" : " hidden");
+    show("arrival-close", Boolean(text));
   }
 
   function eta(left) {
@@ -400,18 +403,45 @@
       ", because " + why + (pos ? ". Now at " + where(pos) : "") + ".", "bad");
   }
 
+  // ------------------------------------------------------------------ the phone's sheet
+
+  // On a phone the chart is far from the hand controller: an object chosen on the chart gets its card (with
+  // GoTo and Sync) in the dock above the motion line and STOP, and the chart is kept in view above
+  // it, so a tap on a star and its GoTo are on one screen. × or a search puts the card back in place.
+  const PHONE = window.matchMedia("(max-width: 720px)");
+  function placeCard(asSheet) {
+    const card = $("selection");
+    const inSheet = card.parentElement === $("sheet-slot");
+    if (asSheet && !inSheet) $("sheet-slot").append(card);
+    else if (!asSheet && inSheet) $("find-note").after(card);
+    if (asSheet) keepChartInView();
+  }
+
+  // The chart and the line under it (what a tap chose, "Select these coordinates") above the sheet.
+  function keepChartInView() {
+    const top = $("sky").getBoundingClientRect().top;
+    const below = $("sky-offer") || $("sky");
+    const bottom = below.getBoundingClientRect().bottom;
+    const sheetTop = $("sheet-slot").getBoundingClientRect().top;
+    if (top < 0 || bottom > sheetTop) window.scrollBy(0, top - Math.max(4, (sheetTop - (bottom - top)) / 2));
+  }
+
   // ------------------------------------------------------------------ start
 
   function start() {
     if (!$("find")) return;
     bindSearch();
     bindButtons();
+    $("sel-close").addEventListener("click", () => placeCard(false));
+    $("arrival-close").addEventListener("click", () => setArrival("", ""));
+    PHONE.addEventListener("change", () => { if (!PHONE.matches) placeCard(false); });
     hook.onStatus(onStatus);
     setInterval(refreshSelection, REFRESH_MS);
   }
 
   // The sky chart (skychart.js) selects a star or object tapped on the chart through this.
   hook.select = select;
+  hook.closeCard = () => placeCard(false);
 
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
   else start();

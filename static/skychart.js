@@ -493,7 +493,7 @@
 
   function choose(id, name) {
     if (typeof hook.select === "function") {
-      hook.select(id);
+      hook.select(id, "chart"); // on a phone its card opens as a sheet above STOP, the chart in view
       offer("Selected " + name + ".");
     } else {
       offer(name + " (selection needs the hand controller)");
@@ -519,6 +519,8 @@
   }
 
   function offerPoint(x, y) {
+    // A tap on empty sky is a new question: a phone's sheet (the last object's card) gives way to the answer.
+    if (typeof hook.closeCard === "function") hook.closeCard();
     const [alt, az] = hook.unproject(x, y);
     if (alt < 0 || alt > 90) return; // below the horizon or outside the chart: nothing to point at
     if (chart.lst === null || chart.latitude === null) {

@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import re
 from collections.abc import Iterator
 from datetime import datetime, timezone
 from typing import Any
@@ -93,7 +94,7 @@ def api_errors(resp: falcon.Response) -> Iterator[None]:
     except ApiError as exc:
         send(resp, {"error": exc.message}, exc.status)
     except AlpacaError as exc:
-        send(resp, {"error": exc.message, "number": exc.number}, _http_status(exc))
+        send(resp, {"error": plain_words(exc.message), "number": exc.number}, _http_status(exc))
     except ConfigError as exc:
         send(resp, {"error": str(exc)}, 400)
     except MountReplyError as exc:
@@ -102,6 +103,22 @@ def api_errors(resp: falcon.Response) -> Iterator[None]:
         send(resp, {"error": link_trouble(exc)}, 409)
     except ModuleNotFoundError as exc:  # an optional package this install lacks (32-bit ARM: PyEphem)
         send(resp, {"error": missing_package((exc.name or "?").partition(".")[0])}, 503)
+
+
+#: The Alpaca members the driver's refusals name, in the words of the page's buttons: a person at the
+#: page never typed "SlewToCoordinatesAsync" (Alpaca clients still get the member's name).
+_PLAIN_WORDS = {
+    "SlewToCoordinatesAsync": "a GoTo", "SlewToTargetAsync": "a GoTo", "SlewToAltAzAsync": "a GoTo",
+    "SyncToCoordinates": "a sync", "SyncToTarget": "a sync", "SyncToAltAz": "a sync",
+    "Tracking=true": "turning tracking on", "SideOfPier": "a meridian flip", "AbortSlew": "stopping",
+    "FindHome": "going home", "MoveAxis": "a manual move", "PulseGuide": "a guide pulse",
+}
+_MEMBER = re.compile("|".join(re.escape(name) for name in _PLAIN_WORDS))
+
+
+def plain_words(message: str) -> str:
+    """A driver message for the page: Alpaca member names put in plain words."""
+    return _MEMBER.sub(lambda m: _PLAIN_WORDS[m.group(0)], message)
 
 
 def link_trouble(exc: LinkError | ProtocolError) -> str:

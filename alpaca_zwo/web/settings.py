@@ -1,7 +1,7 @@
 """The settings API: ``/setup/api/telescope/{number}/settings`` and ``/setup/api/server``.
 
 A change is a JSON object of groups. Each group has one entry in a table: the file-held groups
-(``site``, ``park``, ``limits``, ``safety``, ``device``) are merged into the settings file, the
+(``site``, ``park``, ``limits``, ``safety``, ``time``, ``device``) are merged into the settings file, the
 mount-held ones (``meridian``, ``mount_limits``, ``heavy_duty``, ``buzzer``, ``mode``) become checked
 commands for the mount. Everything is checked before anything is applied, so a typo in one field
 never leaves the mount changed and the file not (or the reverse). The file is written first, in one
@@ -37,7 +37,7 @@ log = logging.getLogger(__name__)
 #: Manual-move speeds the page offers, as multiples of sidereal (the mount's :R0..:R9 set minus 0.25x).
 JOG_MULTIPLES = (0.5, 1.0, 2.0, 4.0, 8.0, 20.0, 60.0, 720.0, 1440.0)
 #: Groups stored in the settings file.
-FILE_GROUPS = ("site", "park", "limits", "safety", "device")
+FILE_GROUPS = ("site", "park", "limits", "safety", "time", "device")
 #: What each site key may be; checked before anything is saved, so a bad longitude cannot leave a
 #: new latitude half-applied.
 SITE_RANGES = {"latitude": (-90.0, 90.0), "longitude": (-180.0, 180.0), "elevation": (-300.0, 10000.0)}
@@ -205,6 +205,8 @@ def settings_view(facade: ServerFacade, device: DeviceFacade, mount: MountSettin
                    "horizon": [list(p) for p in limits.horizon],
                    "meridian_limit_deg": limits.meridian_limit_deg,
                    "meridian_track_past": limits.meridian_track_past},
+        # Whose clock wins (auto | host | mount): read by the time keeper on each decision, so in effect at once.
+        "time": {"source": settings.time.source},
         "safety": {"moveaxis_watchdog_s": settings.safety.moveaxis_watchdog_s,
                    "on_shutdown": settings.safety.on_shutdown, "monitor": settings.safety.monitor,
                    "roof": settings.safety.roof, "poll_s": settings.safety.poll_s,

@@ -95,7 +95,7 @@ class Scene:
         field.send_keys(text)
         if tap_match:  # the short list of matches, then a tap on the first
             WebDriverWait(self.driver, TIMEOUT).until(lambda d: d.find_element(By.ID, "find-list").is_displayed())
-            tap(self.driver, self.driver.find_element(By.XPATH, "//ul[@id='find-list']//button"))
+            tap(self.driver, self.driver.find_element(By.XPATH, "//ul[@id='find-list']//li[@role='option']"))
         else:
             field.send_keys(Keys.ENTER)
 
@@ -164,7 +164,8 @@ def test_search_list_and_the_sun_moves_nothing_without_confirm(server_factory: S
     field = driver.find_element(By.XPATH, FIND)
     tap(driver, field)
     field.send_keys("Mar")  # a short list to choose from: Mars, Markab, Markeb, ...
-    WebDriverWait(driver, TIMEOUT).until(lambda d: len(d.find_elements(By.XPATH, "//ul[@id='find-list']//button")) > 1)
+    options = "//ul[@id='find-list']//li[@role='option']"
+    WebDriverWait(driver, TIMEOUT).until(lambda d: len(d.find_elements(By.XPATH, options)) > 1)
     shot(driver, "search-list", size)
     scene.find("Sun", False)
     WebDriverWait(driver, TIMEOUT).until(lambda d: scene.selected() == "Sun")

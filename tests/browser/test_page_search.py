@@ -53,7 +53,7 @@ class Page:
             field.send_keys(Keys.ENTER)
 
     def matches(self) -> list[str]:
-        buttons = self.driver.find_elements(By.XPATH, "//ul[@id='find-list']//button")
+        buttons = self.driver.find_elements(By.XPATH, "//ul[@id='find-list']//li[@role='option']")
         return [b.text for b in buttons if b.is_displayed()]
 
     def note(self) -> str:
@@ -94,7 +94,7 @@ def test_every_coordinate_form_and_the_ambiguous_pair(server_factory: ServerFact
     WebDriverWait(browser, TIMEOUT).until(lambda d: "\u2193" in page.note())  # "Use ↓ and Enter, or tap one."
     assert page.selected() == "RA 05:35:00 Dec -05:23:00"  # Enter chose nothing
     browser.save_screenshot(f"/tmp/alpaca-zwo-search-ambiguous-{size}.png")
-    browser.find_element(By.XPATH, "//ul[@id='find-list']//button[contains(., 'read as degrees')]").click()
+    browser.find_element(By.XPATH, "//ul[@id='find-list']//li[@role='option'][contains(., 'read as degrees')]").click()
     WebDriverWait(browser, TIMEOUT).until(lambda d: page.selected() == "RA 00:22:21 Dec -05:23:24")
     # The arrow keys choose one, then Enter takes it.
     page.type("5.588 -5.39")

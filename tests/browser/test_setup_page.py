@@ -70,8 +70,10 @@ def test_page_loads_without_console_errors(browser: WebDriver, server: AlpacaZwo
     browser.find_element(By.ID, "btn-connect").click()
     WebDriverWait(browser, 15).until(lambda d: text(d, "ra") != DASH)
     WebDriverWait(browser, 10).until(lambda d: d.find_element(By.ID, "btn-disconnect").is_displayed())
-    browser.find_element(By.CSS_SELECTOR, "#trace-panel summary").click()
-    browser.find_element(By.CSS_SELECTOR, "#log-panel summary").click()
+    for panel in ("#trace-panel summary", "#log-panel summary"):  # scrolled clear of the STOP bar at the bottom
+        summary = browser.find_element(By.CSS_SELECTOR, panel)
+        browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", summary)
+        summary.click()
     WebDriverWait(browser, 10).until(lambda d: d.find_elements(By.CSS_SELECTOR, "#trace tr"))
     browser.find_element(By.ID, "btn-night").click()
     assert "night" in browser.find_element(By.TAG_NAME, "html").get_attribute("class")

@@ -514,6 +514,37 @@ def test_observatory_settings_are_checked_and_saved(client: Client) -> None:
     wait_until(lambda: client.status()["safety"]["state"] == "off", 10, "the interlock to turn off")
 
 
+def test_refusals_name_what_the_page_calls_things(connected: Client) -> None:
+    """The page's refusals say "turning tracking on", not Alpaca's "Tracking=true"; Alpaca clients still get
+    the member's name (their authors look for it)."""
+    connected.action("park")
+    wait_until(lambda: connected.status()["at_park"], 60, "the mount to park")
+    r = connected.post("/setup/api/telescope/0/action/tracking", {"on": True})
+    assert r.status_code == 409, r.text
+    assert r.json()["error"] == "turning tracking on is not allowed while the telescope is parked; unpark it first"
+    alpaca = connected.put("tracking", Tracking="true")
+    assert alpaca.error_number != 0 and "Tracking=true" in alpaca.error_message, alpaca
+
+
+def test_the_time_source_is_checked_saved_and_in_effect(tmp_path: Path,
+                                                       server_factory: Callable[..., AlpacaZwoServer]) -> None:
+    """time.source (issue 31) from the page: a value that is not auto, host or mount, or another key, is a 400
+    and nothing changes; a valid one is in the running server at once, in the file, and after a restart."""
+    first = server_factory(make_settings(), config_name="time.toml")
+    client = Client(f"http://127.0.0.1:{first.port}")
+    assert client.settings()["time"] == {"source": "auto"}
+    for bad in ({"source": "sundial"}, {"source": 3}, {"zone": "UTC"}, "host"):
+        r = client.post("/setup/api/telescope/0/settings", {"time": bad})
+        assert r.status_code == 400, (bad, r.status_code, r.text)
+        assert client.settings()["time"] == {"source": "auto"}
+    assert client.change({"time": {"source": "host"}})["time"] == {"source": "host"}
+    assert first.settings.time.source == "host"  # the time keeper's policy reads this on each decision
+    client.session.close()
+    first.stop()
+    second = server_factory(load_settings(tmp_path / "time.toml"), config_name="time.toml")
+    assert Client(f"http://127.0.0.1:{second.port}").settings()["time"] == {"source": "host"}
+
+
 def test_settings_persist_across_a_restart(tmp_path: Path, server_factory: Callable[..., AlpacaZwoServer]) -> None:
     first = server_factory(make_settings(), config_name="persist.toml")
     c1 = Client(f"http://127.0.0.1:{first.port}")
