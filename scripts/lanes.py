@@ -5,9 +5,9 @@ about 6 CPU minutes in a 47-minute serial run on two cores), so independent grou
 
 - ``main``: every test folder and file but those below, in the foreground at normal priority.
 - ``field``: the emulated nights (tests/motion: slews, flips and guiding at three sites; tests/faults:
-  WiFi stalls and outages, the soak; tests/bridges: Stellarium, INDI and gpsd sessions), in the
-  background at normal priority: the largest share of the suite's waiting, about half of what was
-  one 50-minute main lane, so the two halves wait at the same time.
+  WiFi stalls and outages, the soak), in the background at normal priority: the largest share of the
+  suite's waiting, about half of what was one 50-minute main lane, so the two halves wait at the
+  same time.
 - ``conformance``: the ConformU reproduction north of the equator (about 17 minutes, most of it waiting
   on emulated time), in the background at normal priority: its timed checks must not be starved.
 - ``sites``: the ConformU conformance run at Sydney and on the equator (issue 30; about 20 minutes,
@@ -31,7 +31,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 #: lane -> the entries of tests/ it runs, or a test file carved out of another lane's entry (that lane
 #: then ignores it); ``main`` takes every other entry.
-SEPARATE = {"field": ("tests/motion", "tests/faults", "tests/bridges"), "conformance": ("tests/conformance",),
+SEPARATE = {"field": ("tests/motion", "tests/faults"), "conformance": ("tests/conformance",),
             "sites": ("tests/conformance/test_conformu_sites.py",),
             "platform": ("tests/platform",)}
 LANES = ("main", *SEPARATE)
