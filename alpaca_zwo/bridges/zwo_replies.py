@@ -133,8 +133,8 @@ class ZwoResponder:
 
     def _set_meridian(self, argument: str, well_formed: bool) -> str:
         try:
-            self.telescope.connection.set_meridian_settings(wire_values.parse_meridian(argument))
-        except (ProtocolError, AlpacaError):
+            self.telescope.stored_settings.apply({"meridian": wire_values.parse_meridian(argument)})
+        except AlpacaZwoError:  # refused, out of range, not saved, or the link: the mount's 0
             return "0"
         return "1" if well_formed else "0"
 

@@ -258,7 +258,7 @@ class MountModel:
         limit = float(settings.limit_degrees)
         if self.firmware.goto_flip_at_meridian:
             return min(limit, 0.0)
-        return limit if limit < 0.0 or settings.track_after else 0.0
+        return sky.flip_line_deg(limit, settings.track_after)
 
     def home(self) -> bool:
         """``:hC#``: slew to the mechanical home; tracking goes off on arrival."""

@@ -37,6 +37,7 @@ from .._exceptions import (
 )
 from ..config.settings import Settings, settings_from_dict, settings_to_dict
 from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, parse_status
+from .stored_settings import CHECKS
 
 if TYPE_CHECKING:
     from ..config.store import SettingsStore
@@ -44,6 +45,7 @@ if TYPE_CHECKING:
     from ..mount.operations import Mount
     from ..mount.state import MountSettings
     from .connection import Connection
+    from .stored_settings import StoredSettings
 
 
 class Telescope(Protocol):
@@ -53,7 +55,8 @@ class Telescope(Protocol):
     mount: Mount
     store: SettingsStore
     motion: MotionSupervisor
-    connection: Connection  # who holds the device connected; the mount's meridian setting
+    connection: Connection  # who holds the device connected
+    stored_settings: StoredSettings  # the settings stored in the mount: their one check and write path
 
     @property
     def settings(self) -> Settings: ...
@@ -80,15 +83,6 @@ def _is_number(value: object) -> bool:
     return isinstance(value, float) and math.isfinite(value)
 
 
-def _integer(low: int, high: int) -> Callable[[object], int]:
-    def check(value: object) -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            raise ValueError(f"must be an integer from {low} to {high}, got {json.dumps(value)}")
-        return value
-
-    return check
-
-
 def _number(low: float, high: float) -> Callable[[object], float]:
     def check(value: object) -> float:
         if not _is_number(value) or not low <= value <= high:  # type: ignore[operator]
@@ -96,12 +90,6 @@ def _number(low: float, high: float) -> Callable[[object], float]:
         return float(value)  # type: ignore[arg-type]
 
     return check
-
-
-def _boolean(value: object) -> bool:
-    if not isinstance(value, bool):
-        raise ValueError(f"must be true or false, got {json.dumps(value)}")
-    return value
 
 
 def _choice(*names: str) -> Callable[[object], str]:
@@ -185,7 +173,7 @@ def _read_buzzer(telescope: Telescope) -> Reply:
 
 
 def _write_buzzer(telescope: Telescope, changes: Reply) -> None:
-    telescope.mount.set_buzzer(changes["volume"])
+    telescope.stored_settings.apply({"buzzer": changes["volume"]})
 
 
 def _read_heavy_duty(telescope: Telescope) -> Reply:
@@ -194,7 +182,7 @@ def _read_heavy_duty(telescope: Telescope) -> Reply:
 
 
 def _write_heavy_duty(telescope: Telescope, changes: Reply) -> None:
-    telescope.mount.set_heavy_duty(changes["enabled"])
+    telescope.stored_settings.apply({"heavy_duty": changes["enabled"]})
 
 
 def _read_meridian(telescope: Telescope) -> Reply:
@@ -216,17 +204,8 @@ def _write_meridian(telescope: Telescope, changes: Reply) -> None:
     wanted = MeridianSettings(flip=current.flip,  # "temporarily not supported" by ZWO: kept as it is
                               track_after=changes.get("track_past", current.track_after),
                               limit_degrees=changes.get("limit_degrees", current.limit_degrees))
-    # Mirrored in the configuration, which is pushed to the mount on every connect. Saved first: a
-    # failed save (full disk) then changes nothing; if the mount refuses, the file is put back.
-    limits = telescope.settings.limits
-    before = {"meridian_track_past": limits.meridian_track_past, "meridian_limit_deg": limits.meridian_limit_deg}
-    _save(telescope, "zwo:MeridianSettings", "limits", {"meridian_track_past": wanted.track_after,
-                                                        "meridian_limit_deg": wanted.limit_degrees})
-    try:
-        telescope.connection.set_meridian_settings(wanted)  # remembered for DestinationSideOfPier
-    except Exception:
-        _save(telescope, "zwo:MeridianSettings", "limits", before)
-        raise
+    # Mirrored in the configuration (saved first) and remembered for DestinationSideOfPier by the owner.
+    telescope.stored_settings.apply({"meridian": wanted})
 
 
 def _read_altitude_limits(telescope: Telescope) -> Reply:
@@ -234,14 +213,12 @@ def _read_altitude_limits(telescope: Telescope) -> Reply:
     return {"enabled": settings.limits_enabled, "upper": settings.upper_limit, "lower": settings.lower_limit}
 
 
+#: zwo:AltitudeLimits' keys and the stored settings they are.
+_ALTITUDE_KEYS = {"upper": "upper_limit", "lower": "lower_limit", "enabled": "limits_enabled"}
+
+
 def _write_altitude_limits(telescope: Telescope, changes: Reply) -> None:
-    mount = telescope.mount
-    if "upper" in changes:
-        mount.set_upper_limit(changes["upper"])
-    if "lower" in changes:
-        mount.set_lower_limit(changes["lower"])
-    if "enabled" in changes:
-        mount.set_limits_enabled(changes["enabled"])
+    telescope.stored_settings.apply({_ALTITUDE_KEYS[key]: value for key, value in changes.items()})
 
 
 #: Mode asked for with :AA#/:AP# and not yet in effect, per telescope (the mount has no query for it).
@@ -344,20 +321,21 @@ class ZwoAction:
 
 ACTIONS: tuple[ZwoAction, ...] = (
     ZwoAction("zwo:BuzzerVolume", "The mount's buzzer volume (:GBu#/:SBu).", _read_buzzer,
-              {"volume": Field(_integer(0, 2), "0 off, 1 low, 2 high")}, _write_buzzer, '{"volume": 1}'),
+              {"volume": Field(CHECKS["buzzer"], "0 off, 1 low, 2 high")}, _write_buzzer, '{"volume": 1}'),
     ZwoAction("zwo:HeavyDutyMode", "Heavy-duty mode: top speed 720x instead of 1440x (:GRl#/:SRl).",
-              _read_heavy_duty, {"enabled": Field(_boolean, "true or false")}, _write_heavy_duty,
+              _read_heavy_duty, {"enabled": Field(CHECKS["heavy_duty"], "true or false")}, _write_heavy_duty,
               '{"enabled": true}'),
     ZwoAction("zwo:MeridianSettings", "Meridian behaviour stored in the mount (:GTa#/:STa, firmware >= 1.2.4); "
               "writes are also saved in the configuration, which is pushed to the mount on every connect.",
               _read_meridian,
-              {"track_past": Field(_boolean, "keep tracking past the meridian up to the limit"),
-               "limit_degrees": Field(_integer(-15, 15), "-15..15; negative stops before the meridian")},
+              {"track_past": Field(CHECKS["meridian.track_after"], "keep tracking past the meridian up to the limit"),
+               "limit_degrees": Field(CHECKS["meridian.limit_degrees"], "-15..15; negative stops before the meridian")},
               _write_meridian, '{"track_past": true, "limit_degrees": 10}'),
     ZwoAction("zwo:AltitudeLimits", "The mount's own altitude limits (:GLC#/:GLH#/:GLL#, :SLE#/:SLD#/:SLH/:SLL).",
               _read_altitude_limits,
-              {"enabled": Field(_boolean, "limits on or off"), "upper": Field(_integer(60, 90), "60..90 degrees"),
-               "lower": Field(_integer(0, 30), "0..30 degrees")},
+              {"enabled": Field(CHECKS["limits_enabled"], "limits on or off"),
+               "upper": Field(CHECKS["upper_limit"], "60..90 degrees"),
+               "lower": Field(CHECKS["lower_limit"], "0..30 degrees")},
               _write_altitude_limits, '{"enabled": true, "upper": 85, "lower": 10}'),
     ZwoAction("zwo:MountMode", "Equatorial or alt-az mode (:AP#/:AA#); a switch takes effect only after the "
               "mount is restarted, which the reply says.", _read_mode,

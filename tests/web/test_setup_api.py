@@ -471,6 +471,26 @@ def test_mount_settings_round_trip(connected: Client) -> None:
     assert connected.value("destinationsideofpier", RightAscension=ra, Declination=40) == int(sky.PierSide.EAST)
 
 
+def test_the_page_and_destinationsideofpier_draw_one_flip_line(connected: Client) -> None:
+    """A negative limit is the flip line whatever "track past" says (ZWO: "stop n° before the meridian";
+    sky.flip_line_deg). The page once drew the meridian for it (``limit if track_after``) while
+    DestinationSideOfPier predicted with the limit: a target 4.5° before the meridian read pierEast from
+    DestinationSideOfPier and "before the flip line" on the page."""
+    connected.change({"meridian": {"track_after": False, "limit_degrees": -10}})
+    status = connected.status()
+    assert status["meridian"]["track_after"] is False
+    assert status["meridian"]["limit_deg"] == -10
+    assert status["sky"]["flip_line"], "the page draws the flip line 10° before the meridian"
+    lst = connected.value("siderealtime")
+
+    def destination(ha_hours: float) -> int:
+        return int(connected.value("destinationsideofpier", RightAscension=(lst - ha_hours) % 24, Declination=40))
+
+    # Either side of the page's line, DestinationSideOfPier agrees with it (HA -0.3 h = -4.5°, -0.9 h = -13.5°).
+    assert destination(-0.3) == int(sky.PierSide.EAST)
+    assert destination(-0.9) == int(sky.PierSide.WEST)
+
+
 def test_horizon_limits_refuse_gotos(connected: Client) -> None:
     s = connected.change({"limits": {"min_altitude_deg": 20, "horizon": [[90, 30], [270, 5]]}})
     assert s["limits"]["horizon"] == [[90.0, 30.0], [270.0, 5.0]]
