@@ -10,8 +10,10 @@ nothing here waits for the serial line except the explicit mount-settings read a
 The controls go through the same :class:`~alpaca_zwo.telescope.device.Telescope` methods the Alpaca API
 uses, so the safety rules hold for both.
 
-The names the page needs from lower layers (value types, sky geometry, errors) are re-exported
-here, so ``alpaca_zwo.web`` imports this module and nothing else of the server's.
+Besides its own classes it names only the types its methods take and return (the settings, the
+mount's state and settings, the clock view, a client's key) and the settings file's dict form the page
+edits: ``__all__``. The page takes errors from ``_exceptions`` (everyone may) and sky arithmetic from
+the pure ``sky`` module, not through here; ``tests/test_layers.py`` holds the page to that.
 """
 
 from __future__ import annotations
@@ -26,30 +28,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from . import __version__
-from ._exceptions import (
-    AlpacaError,
-    ConfigError,
-    InvalidValue,
-    LinkError,
-    LinkTimeout,
-    MountReplyError,
-    ProtocolError,
-    SettingsNotSaved,
-)
+from ._exceptions import AlpacaError, LinkError, MountReplyError, ProtocolError
 from .clients import ClientActivity, ClientKey, current_client
 from .config.settings import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .motion import Motion, MotionKind
 from .mount.state import MountSettings, MountState
-from .mount.timekeeping import ClockView, TimeSource, describe_difference
-from .sky import (
-    SIDEREAL_DEG_S,
-    SOLAR_SECONDS_PER_SIDEREAL_SECOND,
-    angular_separation,
-    equatorial_to_horizontal,
-    flip_line_deg,
-    hour_angle,
-    local_sidereal_time,
-)
+from .mount.timekeeping import ClockView
+from .sky import SIDEREAL_DEG_S, flip_line_deg
 from .telescope.stored_settings import CHECKS as STORED_CHECKS
 from .zwo.link import LinkCounters, LinkStatus, TraceEntry
 from .zwo.wire_values import MeridianSettings
@@ -63,7 +48,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
-class AlpacaZwoServer(Protocol):
+class ServerParts(Protocol):
     """What the facade reads of the server (``server.AlpacaZwoServer`` is one). Declared here, so the
     server builds its facade without the facade importing the server: the two import no circle."""
 
@@ -178,7 +163,7 @@ def _quiet(getter: Callable[[], Any], default: Any) -> Any:
 class DeviceFacade:
     """One telescope as the page sees it: its snapshots, its mount's own settings and its controls."""
 
-    def __init__(self, index: int, telescope: Telescope, server: AlpacaZwoServer) -> None:
+    def __init__(self, index: int, telescope: Telescope, server: ServerParts) -> None:
         self.index = index
         self._telescope = telescope
         self._server = server
@@ -425,7 +410,7 @@ class DeviceFacade:
 class ServerFacade:
     """The whole server as the page sees it: settings, devices, clients, bridges."""
 
-    def __init__(self, server: AlpacaZwoServer) -> None:
+    def __init__(self, server: ServerParts) -> None:
         self._server = server
         self._devices: dict[int, DeviceFacade] = {}
         self._lock = threading.Lock()
@@ -529,39 +514,26 @@ class ServerFacade:
 
 
 __all__ = [
-    "SIDEREAL_DEG_S",
-    "SOLAR_SECONDS_PER_SIDEREAL_SECOND",
-    "AlpacaError",
     "ClientKey",
     "ClockView",
-    "ConfigError",
     "DeviceFacade",
     "FacadeProvider",
-    "InvalidValue",
-    "LinkError",
-    "LinkTimeout",
     "LinkView",
     "MeridianSettings",
+    "MotionReport",
     "MotionView",
-    "MountReplyError",
     "MountSettings",
     "MountState",
     "ParkSettings",
-    "ProtocolError",
     "SafetyStatusSource",
     "ServerFacade",
+    "ServerParts",
     "Settings",
-    "SettingsNotSaved",
     "StatusSource",
     "TimeSetReport",
-    "TimeSource",
-    "angular_separation",
+    "check_stored_setting",
     "current_client",
-    "describe_difference",
-    "equatorial_to_horizontal",
     "horizon_altitude_at",
-    "hour_angle",
-    "local_sidereal_time",
     "settings_from_dict",
     "settings_to_dict",
 ]

@@ -48,7 +48,7 @@ if TYPE_CHECKING:
     from .stored_settings import StoredSettings
 
 
-class Telescope(Protocol):
+class ActionDevice(Protocol):
     """What an action uses of its device (``device.Telescope`` is one). Declared here so that this
     module sits below the Telescope that dispatches to it, and the two import no circle."""
 
@@ -123,19 +123,19 @@ class Field:
 # ================================================================================================
 
 
-def _settings(telescope: Telescope) -> MountSettings:
+def _settings(telescope: ActionDevice) -> MountSettings:
     """The settings stored in the mount (a few short queries); a value it did not report is None."""
     return telescope.mount.read_settings()
 
 
-def _require_meridian_firmware(telescope: Telescope) -> None:
+def _require_meridian_firmware(telescope: ActionDevice) -> None:
     info = telescope.mount.state.info
     if info is not None and not info.has_meridian_settings:
         raise MemberNotImplemented(f"this {info.model} has firmware {info.firmware}; meridian settings "
                                    "(:GTa#/:STa) need firmware 1.2.4 or later")
 
 
-def _refuse_in_altaz(telescope: Telescope, action: str) -> None:
+def _refuse_in_altaz(telescope: ActionDevice, action: str) -> None:
     """Meridian settings belong to a German mount: in alt-az mode (``Z`` in ``:GU#``) there is no meridian
     to stop at or flip over, so the action is refused before anything is sent."""
     status = telescope.mount.state.status
@@ -144,7 +144,7 @@ def _refuse_in_altaz(telescope: Telescope, action: str) -> None:
                                "flip (switch to equatorial mode with zwo:MountMode and restart the mount to use it)")
 
 
-def _save(telescope: Telescope, action: str, section: str, values: Mapping[str, object]) -> Settings:
+def _save(telescope: ActionDevice, action: str, section: str, values: Mapping[str, object]) -> Settings:
     """Persist configuration values through the settings store, as the setup page does.
 
     The store validates before it writes, so a refused value (InvalidValue) leaves both file and
@@ -167,25 +167,25 @@ def _save(telescope: Telescope, action: str, section: str, values: Mapping[str, 
 # ================================================================================================
 
 
-def _read_buzzer(telescope: Telescope) -> Reply:
+def _read_buzzer(telescope: ActionDevice) -> Reply:
     level = _settings(telescope).buzzer
     return {"volume": level, "name": BUZZER_LEVELS[level] if level in (0, 1, 2) else None}
 
 
-def _write_buzzer(telescope: Telescope, changes: Reply) -> None:
+def _write_buzzer(telescope: ActionDevice, changes: Reply) -> None:
     telescope.stored_settings.apply({"buzzer": changes["volume"]})
 
 
-def _read_heavy_duty(telescope: Telescope) -> Reply:
+def _read_heavy_duty(telescope: ActionDevice) -> Reply:
     on = _settings(telescope).heavy_duty
     return {"enabled": on, "max_speed": None if on is None else (720 if on else 1440)}
 
 
-def _write_heavy_duty(telescope: Telescope, changes: Reply) -> None:
+def _write_heavy_duty(telescope: ActionDevice, changes: Reply) -> None:
     telescope.stored_settings.apply({"heavy_duty": changes["enabled"]})
 
 
-def _read_meridian(telescope: Telescope) -> Reply:
+def _read_meridian(telescope: ActionDevice) -> Reply:
     _refuse_in_altaz(telescope, "zwo:MeridianSettings")
     _require_meridian_firmware(telescope)
     meridian = _settings(telescope).meridian
@@ -197,7 +197,7 @@ def _read_meridian(telescope: Telescope) -> Reply:
                            "limit_degrees": round(limits.meridian_limit_deg)}}
 
 
-def _write_meridian(telescope: Telescope, changes: Reply) -> None:
+def _write_meridian(telescope: ActionDevice, changes: Reply) -> None:
     _refuse_in_altaz(telescope, "zwo:MeridianSettings")
     _require_meridian_firmware(telescope)
     current = _settings(telescope).meridian or MeridianSettings()
@@ -208,7 +208,7 @@ def _write_meridian(telescope: Telescope, changes: Reply) -> None:
     telescope.stored_settings.apply({"meridian": wanted})
 
 
-def _read_altitude_limits(telescope: Telescope) -> Reply:
+def _read_altitude_limits(telescope: ActionDevice) -> Reply:
     settings = _settings(telescope)
     return {"enabled": settings.limits_enabled, "upper": settings.upper_limit, "lower": settings.lower_limit}
 
@@ -217,22 +217,22 @@ def _read_altitude_limits(telescope: Telescope) -> Reply:
 _ALTITUDE_KEYS = {"upper": "upper_limit", "lower": "lower_limit", "enabled": "limits_enabled"}
 
 
-def _write_altitude_limits(telescope: Telescope, changes: Reply) -> None:
+def _write_altitude_limits(telescope: ActionDevice, changes: Reply) -> None:
     telescope.stored_settings.apply({_ALTITUDE_KEYS[key]: value for key, value in changes.items()})
 
 
 #: Mode asked for with :AA#/:AP# and not yet in effect, per telescope (the mount has no query for it).
-_requested_modes: weakref.WeakKeyDictionary[Telescope, MountMode] = weakref.WeakKeyDictionary()
+_requested_modes: weakref.WeakKeyDictionary[ActionDevice, MountMode] = weakref.WeakKeyDictionary()
 
 
-def _fresh_status(telescope: Telescope) -> tuple[str, MountStatus]:
+def _fresh_status(telescope: ActionDevice) -> tuple[str, MountStatus]:
     """``:GU#`` read now, raw and decoded. Also a round trip: every command sent before it (even a
     no-reply one such as ``:AA#``) has reached the mount by the time this returns."""
     raw = telescope.mount.raw(":GU#")
     return raw, parse_status(raw[:-1] if raw.endswith("#") else raw)
 
 
-def _read_mode(telescope: Telescope, status: MountStatus | None = None) -> Reply:
+def _read_mode(telescope: ActionDevice, status: MountStatus | None = None) -> Reply:
     current = (status or _fresh_status(telescope)[1]).mode
     requested = _requested_modes.get(telescope, current)
     if requested is current:
@@ -244,11 +244,11 @@ def _read_mode(telescope: Telescope, status: MountStatus | None = None) -> Reply
     return reply
 
 
-def _write_mode(telescope: Telescope, changes: Reply) -> None:
+def _write_mode(telescope: ActionDevice, changes: Reply) -> None:
     request_mode(telescope, changes["mode"])
 
 
-def request_mode(telescope: Telescope, name: str) -> None:
+def request_mode(telescope: ActionDevice, name: str) -> None:
     """Send ``:AP#``/``:AA#`` for ``name`` ("equatorial" or "altaz") and remember it as requested: the mount
     applies it only after a restart (field notes §2.8), and then ``:GU#`` shows the new letter."""
     wanted = MountMode.EQUATORIAL if name == "equatorial" else MountMode.ALTAZ
@@ -257,13 +257,13 @@ def request_mode(telescope: Telescope, name: str) -> None:
     log.warning("mount mode %s requested: the mount must be restarted for it to take effect", name)
 
 
-def mode_report(telescope: Telescope, status: MountStatus | None = None) -> Reply:
+def mode_report(telescope: ActionDevice, status: MountStatus | None = None) -> Reply:
     """The zwo:MountMode reply (current mode, requested mode, restart_required and its message); from
     ``status`` when given (the setup page passes the poller's, so its GET costs no exchange), else ``:GU#`` now."""
     return _read_mode(telescope, status)
 
 
-def _read_info(telescope: Telescope) -> Reply:
+def _read_info(telescope: ActionDevice) -> Reply:
     mount = telescope.mount
     info = mount.state.info
     raw, status = _fresh_status(telescope)  # exactly as the mount prints it
@@ -285,16 +285,16 @@ def _read_info(telescope: Telescope) -> Reply:
     }
 
 
-def _read_horizon(telescope: Telescope) -> Reply:
+def _read_horizon(telescope: ActionDevice) -> Reply:
     limits = telescope.settings.limits
     return {"min_altitude_deg": limits.min_altitude_deg, "horizon": [list(p) for p in limits.horizon]}
 
 
-def _write_horizon(telescope: Telescope, changes: Reply) -> None:
+def _write_horizon(telescope: ActionDevice, changes: Reply) -> None:
     _save(telescope, "zwo:Horizon", "limits", changes)
 
 
-def _read_safety(telescope: Telescope) -> Reply:
+def _read_safety(telescope: ActionDevice) -> Reply:
     """The observatory interlock's verdict, as every motion start sees it (motion/interlock.py)."""
     verdict = telescope.motion.interlock.verdict
     return {"safe": verdict.safe, "source": verdict.source,
@@ -313,9 +313,9 @@ class ZwoAction:
 
     name: str
     summary: str
-    read: Callable[[Telescope], Reply]
+    read: Callable[[ActionDevice], Reply]
     fields: Mapping[str, Field] = field(default_factory=dict)
-    write: Callable[[Telescope, Reply], None] | None = None
+    write: Callable[[ActionDevice, Reply], None] | None = None
     example: str = "{}"  # a write example for the documentation
 
 
@@ -391,7 +391,7 @@ def _changes(action: ZwoAction, parameters: str) -> Reply:
     return changes
 
 
-def run_action(telescope: Telescope, name: str, parameters: str) -> str:
+def run_action(telescope: ActionDevice, name: str, parameters: str) -> str:
     """Run one action by name (case-insensitive): write the given keys, then return the state as JSON."""
     action = _BY_NAME.get(name.strip().lower())
     if action is None:

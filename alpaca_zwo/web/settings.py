@@ -22,7 +22,6 @@ from typing import Any
 import falcon
 
 from ..facade import (
-    SIDEREAL_DEG_S,
     DeviceFacade,
     MeridianSettings,
     MountSettings,
@@ -32,6 +31,7 @@ from ..facade import (
     settings_from_dict,
     settings_to_dict,
 )
+from ..sky import SIDEREAL_DEG_S
 from .context import Resource, WebContext
 from .http import ApiError, api_errors, check_same_origin, number, obj, only_keys, send
 

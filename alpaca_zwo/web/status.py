@@ -14,7 +14,6 @@ from typing import Any
 import falcon
 
 from ..facade import (
-    SOLAR_SECONDS_PER_SIDEREAL_SECOND,
     ClientKey,
     ClockView,
     DeviceFacade,
@@ -23,11 +22,9 @@ from ..facade import (
     MountState,
     ServerFacade,
     Settings,
-    equatorial_to_horizontal,
     horizon_altitude_at,
-    hour_angle,
-    local_sidereal_time,
 )
+from ..sky import SOLAR_SECONDS_PER_SIDEREAL_SECOND, equatorial_to_horizontal, hour_angle, local_sidereal_time
 from .context import Resource
 from .http import PAGE_TAG, api_errors, finite, iso, send
 

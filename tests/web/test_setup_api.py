@@ -688,15 +688,23 @@ def test_status_never_waits_for_the_mount(connected: Client) -> None:
 
 
 def test_the_web_package_talks_to_the_server_only_through_the_facade() -> None:
-    """Layering: web/ may import the facade and itself, never the mount, link or Telescope directly."""
+    """Layering: web/ may import the facade and itself, never the mount, link or Telescope directly; besides,
+    only what holds no server state: the errors, the pure sky arithmetic and the object catalogue."""
     package = Path(__file__).resolve().parents[2] / "alpaca_zwo" / "web"
+    stateless = ("..facade", ".._exceptions", "..sky", "..catalogue")
     for module in sorted(package.glob("*.py")):
         tree = ast.parse(module.read_text(), str(module))
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom) and node.level:
                 target = "." * node.level + (node.module or "")
-                assert node.level == 1 or target == "..facade", f"{module.name} imports {target}"
+                allowed = node.level == 1 or target in stateless or target.startswith("..catalogue.")
+                assert allowed, f"{module.name} imports {target}"
             elif isinstance(node, ast.Import | ast.ImportFrom):
                 names = [a.name for a in node.names] if isinstance(node, ast.Import) else [node.module or ""]
                 assert not any(n.startswith("alpaca_zwo") for n in names), f"{module.name} imports {names}"
         assert "mount.link" not in module.read_text(), module.name
+        assert ".motion.motion" not in module.read_text(), module.name
+    # Nor does the facade reach past the Telescope's parts into theirs (the link behind the mount, the
+    # supervisor's fields): the parts offer accessors (Connection.link_status, MotionSupervisor.running).
+    facade = (package.parent / "facade.py").read_text()
+    assert ".mount.link." not in facade and ".motion.motion" not in facade
