@@ -10,8 +10,10 @@ nothing here waits for the serial line except the explicit mount-settings read a
 The controls go through the same :class:`~alpaca_zwo.telescope.device.Telescope` methods the Alpaca API
 uses, so the safety rules hold for both.
 
-The names the page needs from lower layers (value types, sky geometry, errors) are re-exported
-here, so ``alpaca_zwo.web`` imports this module and nothing else of the server's.
+Besides its own classes it names only the types its methods take and return (the settings, the
+mount's state and settings, the clock view, a client's key) and the settings file's dict form the page
+edits: ``__all__``. The page takes errors from ``_exceptions`` (everyone may) and sky arithmetic from
+the pure ``sky`` module, not through here; ``tests/test_layers.py`` holds the page to that.
 """
 
 from __future__ import annotations
@@ -26,29 +28,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from . import __version__
-from ._exceptions import (
-    AlpacaError,
-    ConfigError,
-    InvalidValue,
-    LinkError,
-    LinkTimeout,
-    MountReplyError,
-    ProtocolError,
-    SettingsNotSaved,
-)
+from ._exceptions import AlpacaError, LinkError, MountReplyError, ProtocolError
 from .clients import ClientActivity, ClientKey, current_client
 from .config.settings import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .motion import Motion, MotionKind
 from .mount.state import MountSettings, MountState
-from .mount.timekeeping import ClockView, TimeSource, describe_difference
-from .sky import (
-    SIDEREAL_DEG_S,
-    SOLAR_SECONDS_PER_SIDEREAL_SECOND,
-    angular_separation,
-    equatorial_to_horizontal,
-    hour_angle,
-    local_sidereal_time,
-)
+from .mount.timekeeping import ClockView
+from .sky import SIDEREAL_DEG_S, flip_line_deg
+from .telescope.stored_settings import CHECKS as STORED_CHECKS
 from .zwo.link import LinkCounters, LinkStatus, TraceEntry
 from .zwo.wire_values import MeridianSettings
 
@@ -61,7 +48,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
-class AlpacaZwoServer(Protocol):
+class ServerParts(Protocol):
     """What the facade reads of the server (``server.AlpacaZwoServer`` is one). Declared here, so the
     server builds its facade without the facade importing the server: the two import no circle."""
 
@@ -159,6 +146,12 @@ class TimeSetReport:
     mount_difference_s: float | None = None  # that reading minus the server's time at the same instant
 
 
+def check_stored_setting(name: str, value: object) -> Any:
+    """A value of a setting stored in the mount (``telescope/stored_settings.py``'s CHECKS names: ``buzzer``,
+    ``meridian.limit_degrees`` ...) by the one check its owner applies: the value, or ValueError with why."""
+    return STORED_CHECKS[name](value)
+
+
 def _quiet(getter: Callable[[], Any], default: Any) -> Any:
     """A Telescope property for display: its ASCOM refusal (not connected, no position yet) shows as blank."""
     try:
@@ -170,7 +163,7 @@ def _quiet(getter: Callable[[], Any], default: Any) -> Any:
 class DeviceFacade:
     """One telescope as the page sees it: its snapshots, its mount's own settings and its controls."""
 
-    def __init__(self, index: int, telescope: Telescope, server: AlpacaZwoServer) -> None:
+    def __init__(self, index: int, telescope: Telescope, server: ServerParts) -> None:
         self.index = index
         self._telescope = telescope
         self._server = server
@@ -196,7 +189,7 @@ class DeviceFacade:
     def url(self) -> str:
         """The mount this device really drives ('' for the built-in emulator): --device wins over the
         config's URL, as at start, so the page never calls a real mount "the built-in emulator"."""
-        return "" if self.emulated else self._telescope.mount.link.url
+        return "" if self.emulated else self._telescope.connection.link_status().url
 
     @property
     def running(self) -> bool:
@@ -237,7 +230,7 @@ class DeviceFacade:
     def motion_report(self) -> MotionReport | None:
         """The running slew/park/home, else the last one with its outcome (manual moves and stops are not
         kept: a STOP ends the slew it interrupts with error "stopped", which is what the page reports)."""
-        current = self._telescope.motion.motion
+        current = self._telescope.motion.running()
         if current is not None and current.kind not in (MotionKind.MOVE, MotionKind.STOP):
             self._last_motion = current
         motion = self._last_motion
@@ -254,13 +247,13 @@ class DeviceFacade:
         return MotionReport(motion.kind.value, not motion.done.is_set(), motion.error, ra, ha, dec)
 
     def link(self) -> LinkView:
-        mount = self._telescope.mount
-        state = mount.state
-        return LinkView(state.link or mount.link.status, mount.link.counters, state.poll_error)
+        connection = self._telescope.connection
+        state = self._telescope.mount.state
+        return LinkView(state.link or connection.link_status(), connection.link_counters(), state.poll_error)
 
     def trace(self) -> list[TraceEntry]:
         """The recent serial exchanges, oldest first."""
-        return self._telescope.mount.link.trace()
+        return self._telescope.connection.link_trace()
 
     @property
     def park_settings(self) -> ParkSettings:
@@ -276,31 +269,41 @@ class DeviceFacade:
         server, after each (re)connect and by a slow periodic re-read (``mount/settings_cache.py``), so the
         settings view and the status feed cost the line nothing however many pages are open.
         """
-        return self._telescope.mount.settings
+        return self._telescope.stored_settings.cached()
 
     def read_mount_settings(self) -> MountSettings | None:
         """The settings stored in the mount, read now (eight short queries): only after the page has
         written one, so its reply shows what the mount really took. Without a link, the cached ones."""
-        mount = self._telescope.mount
-        if not mount.running or not mount.link.status.connected:
-            return mount.settings
-        return mount.read_settings()
+        if not self.running or not self._telescope.connection.link_status().connected:
+            return self.cached_mount_settings
+        return self._telescope.stored_settings.read()
 
-    def apply_mount_setting(self, name: str, value: Any) -> None:
-        """Write one mount-held setting: meridian, upper_limit, lower_limit, limits_enabled, heavy_duty, buzzer,
-        mode ("equatorial"/"altaz": sent now, in effect after the mount is restarted; see ``mount_mode``)."""
-        if name == "mode":
-            from .telescope.actions import request_mode
+    def apply_mount_settings(self, changes: Mapping[str, Any]) -> None:
+        """Write settings stored in the mount (meridian, upper_limit, lower_limit, limits_enabled, heavy_duty,
+        buzzer) through their one owner, which also mirrors the meridian setting in the configuration."""
+        if changes:
+            self._telescope.stored_settings.apply(changes)
+            log.info("setup page: mount %s set", ", ".join(f"{name.replace('_', ' ')} to {value}"
+                                                           for name, value in changes.items()))
 
-            request_mode(self._telescope, value)
-            return
-        mount = self._telescope.mount
-        setters: dict[str, Callable[[Any], None]] = {
-            "meridian": self._telescope.connection.set_meridian_settings, "upper_limit": mount.set_upper_limit,
-            "lower_limit": mount.set_lower_limit, "limits_enabled": mount.set_limits_enabled,
-            "heavy_duty": mount.set_heavy_duty, "buzzer": mount.set_buzzer}
-        setters[name](value)
-        log.info("setup page: mount %s set to %s", name.replace("_", " "), value)
+    def request_mode(self, name: str) -> None:
+        """EQ or alt-az ("equatorial"/"altaz"): sent now, in effect after the mount is restarted (``mount_mode``)."""
+        from .telescope.actions import request_mode
+
+        request_mode(self._telescope, name)
+        log.info("setup page: mount mode set to %s", name)
+
+    def flip_line(self) -> tuple[bool, float]:
+        """The mount's "track past" flag and its flip line in degrees past the meridian
+        (``sky.flip_line_deg``, the rule DestinationSideOfPier predicts with): by the mount's own setting
+        when it has been read, else the configured one."""
+        cached = self.cached_mount_settings
+        if cached is not None and cached.meridian is not None:
+            track_after, limit = cached.meridian.track_after, float(cached.meridian.limit_degrees)
+        else:
+            limits = self._server.settings.limits
+            track_after, limit = limits.meridian_track_past, limits.meridian_limit_deg
+        return track_after, flip_line_deg(limit, track_after)
 
     def mount_mode(self) -> dict[str, Any] | None:
         """The mode now in effect, the one requested and, while they differ, the warning that the mount
@@ -308,7 +311,7 @@ class DeviceFacade:
         (at most a poll interval old), not a fresh one: the settings view costs the line nothing."""
         mount = self._telescope.mount
         status = mount.state.status
-        if not mount.running or not mount.link.status.connected or status is None:
+        if not mount.running or not self._telescope.connection.link_status().connected or status is None:
             return None
         from .telescope.actions import mode_report
 
@@ -432,7 +435,7 @@ class DeviceFacade:
 class ServerFacade:
     """The whole server as the page sees it: settings, devices, clients, bridges."""
 
-    def __init__(self, server: AlpacaZwoServer) -> None:
+    def __init__(self, server: ServerParts) -> None:
         self._server = server
         self._devices: dict[int, DeviceFacade] = {}
         self._lock = threading.Lock()
@@ -536,39 +539,26 @@ class ServerFacade:
 
 
 __all__ = [
-    "SIDEREAL_DEG_S",
-    "SOLAR_SECONDS_PER_SIDEREAL_SECOND",
-    "AlpacaError",
     "ClientKey",
     "ClockView",
-    "ConfigError",
     "DeviceFacade",
     "FacadeProvider",
-    "InvalidValue",
-    "LinkError",
-    "LinkTimeout",
     "LinkView",
     "MeridianSettings",
+    "MotionReport",
     "MotionView",
-    "MountReplyError",
     "MountSettings",
     "MountState",
     "ParkSettings",
-    "ProtocolError",
     "SafetyStatusSource",
     "ServerFacade",
+    "ServerParts",
     "Settings",
-    "SettingsNotSaved",
     "StatusSource",
     "TimeSetReport",
-    "TimeSource",
-    "angular_separation",
+    "check_stored_setting",
     "current_client",
-    "describe_difference",
-    "equatorial_to_horizontal",
     "horizon_altitude_at",
-    "hour_angle",
-    "local_sidereal_time",
     "settings_from_dict",
     "settings_to_dict",
 ]

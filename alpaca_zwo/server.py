@@ -28,7 +28,7 @@ from .motion.interlock import Interlock
 from .mount.host_clock import HostClockWatch
 from .mount.operations import Mount, utc_now
 from .mount.timekeeping import TimeKeeper
-from .observatory import Responder, SafetyWatch
+from .observatory import SafetyResponder, SafetyWatch
 from .telescope.device import Telescope
 from .zwo.link import Link
 
@@ -95,7 +95,7 @@ class AlpacaZwoServer:
         #: polls the SafetyMonitor and roof into it, and the responder that parks or stops the mounts.
         self.interlock = Interlock()
         self.safety_watch: SafetyWatch | None = None
-        self.safety_responder: Responder | None = None
+        self.safety_responder: SafetyResponder | None = None
         self._extra_routes_factory = extra_routes_factory
         self._facade: ServerFacade | None = None
         #: Is this computer's clock synchronised? Read by every mount's time reference (mount/timekeeping.py).
@@ -199,7 +199,7 @@ class AlpacaZwoServer:
                 self.advertiser = None
 
     def _start_safety_watch(self) -> None:
-        responder = Responder(self.telescopes, self.interlock, lambda: self.settings, self._record_safety)
+        responder = SafetyResponder(self.telescopes, self.interlock, lambda: self.settings, self._record_safety)
         self.safety_responder = responder
         self.safety_watch = SafetyWatch(self.store, self.interlock, on_change=responder.verdict_changed)
         responder.start()

@@ -32,6 +32,7 @@ __all__ = [
     "PierSide",
     "angular_separation",
     "equatorial_to_horizontal",
+    "flip_line_deg",
     "goto_pier_side",
     "greenwich_mean_sidereal_time",
     "horizontal_to_equatorial",
@@ -265,6 +266,20 @@ def pointing_state(ha_hours: float) -> PierSide:
     if not math.isfinite(ha_hours):
         return PierSide.UNKNOWN
     return PierSide.WEST if wrap_hours_12(ha_hours) < 0.0 else PierSide.EAST
+
+
+def flip_line_deg(limit_deg: float, track_past: bool) -> float:
+    """Where a German mount's flip line lies, in degrees of hour angle past the meridian, for its meridian
+    setting (``:STa``: ``limit_deg`` -15..+15 and the "track past" flag): the one rule DestinationSideOfPier,
+    the GOTO side, the emulator and the setup page's flip line and countdown all use.
+
+    A negative limit counts whatever the flag says: ZWO's text for ``:STa`` says a negative limit stops
+    tracking "n° before the meridian" and the flag only chooses what happens *past* it ("if you choose to
+    track, stop according to the limit"; field notes §2.8), so the line is the limit. A positive limit
+    moves the line past the meridian only with "track past" on; without it the mount stops at the meridian
+    (1° after it), so the line is the meridian. docs/meridian.md, assumption A1.
+    """
+    return limit_deg if limit_deg < 0.0 or track_past else 0.0
 
 
 def goto_pier_side(target_ha_hours: float, current_side: PierSide, meridian_limit_deg: float) -> PierSide:

@@ -25,12 +25,13 @@ ALLOWED: dict[str, set[str]] = {
     "mount": {"zwo", "sky"},
     "config": {"zwo"},
     "emulator": {"zwo", "sky"},
+    "catalogue": {"sky"},
     "motion": {"mount", "config", "zwo", "clients", "sky"},
     "telescope": {"motion", "mount", "config", "zwo", "clients", "sky"},
     "bridges": {"telescope", "mount", "config", "zwo", "clients", "sky"},
     "observatory": {"telescope", "motion", "config", "alpaca", "clients"},
     "facade": {"telescope", "motion", "mount", "config", "zwo", "alpaca", "clients", "sky"},
-    "web": {"facade"},
+    "web": {"facade", "catalogue", "sky"},
     "server": {"facade", "web", "bridges", "observatory", "telescope", "motion", "mount", "config", "zwo", "alpaca",
                "emulator", "clients", "sky", "service"},
     "cli": {"server", "web", "config", "zwo", "alpaca", "emulator", "service", "clients", "sky"},
@@ -154,3 +155,31 @@ def test_the_rules_can_see_a_circle_and_a_wrong_way_import() -> None:
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
     assert _against_rules({"motion": {"mount", "telescope"}, "web": {"facade", "_exceptions"}}) == {
         "motion": ["telescope"]}
+
+
+#: Files the ZWO command table's merge (issue 34 part A) removes; a class there may still repeat a name
+#: until then. Empty this once they are gone.
+_LEAVING = {"bridges/zwo_clock_site.py"}
+
+
+def test_no_class_name_is_defined_twice() -> None:
+    """One name, one class: a reader who meets ``Pulse`` or ``Reading`` knows which one it is."""
+    where: dict[str, list[str]] = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        name = path.relative_to(PACKAGE).as_posix()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ClassDef) and name not in _LEAVING:
+                where.setdefault(node.name, []).append(name)
+    assert {cls: files for cls, files in where.items() if len(files) > 1} == {}
+
+
+def test_no_stale_module_names() -> None:
+    """Modules that moved (``alpaca_zwo.firmware`` is ``zwo/firmware.py``, ``alpaca_zwo/actions.py`` is
+    ``telescope/actions.py``, the catalogue left ``web/``) are not named by their old paths anywhere."""
+    stale = ("alpaca_zwo.firmware", "alpaca_zwo/firmware.py", "alpaca_zwo/actions.py", "alpaca_zwo.actions",
+             "alpaca_zwo/web/objects.py", "alpaca_zwo.web.objects", "web/sky_data.json", "web/star_names.csv")
+    roots = [PACKAGE, PACKAGE.parent / "tests", PACKAGE.parent / "docs", PACKAGE.parent / "tools"]
+    found = [f"{path.relative_to(PACKAGE.parent)}: {old}" for root in roots for path in sorted(root.rglob("*"))
+             if path.suffix in (".py", ".md", ".toml") and path != Path(__file__)
+             for old in stale if old in path.read_text(encoding="utf-8")]
+    assert found == []

@@ -489,3 +489,15 @@ def test_side_limit_lands_the_goto_on_the_side_asked_for(ha: float, side: PierSi
 def test_kept_goto_side_keeps_east_past_the_meridian_up_to_the_limit(
         ha_deg: float, current: PierSide, expected: PierSide) -> None:
     assert sky.kept_goto_side(ha_deg / 15.0, current, 5.0) is expected
+
+
+@pytest.mark.parametrize(("limit", "track_past", "line"), [
+    (-10.0, False, -10.0),  # a negative limit stops tracking before the meridian: the flag does not matter
+    (-10.0, True, -10.0),
+    (5.0, True, 5.0),  # "track past" up to the limit
+    (5.0, False, 0.0),  # no "track past": the mount stops (and flips) at the meridian
+    (0.0, False, 0.0),
+])
+def test_flip_line_deg(limit: float, track_past: bool, line: float) -> None:
+    """The one flip-line rule (the page, DestinationSideOfPier, the GOTO side and the emulator use it)."""
+    assert sky.flip_line_deg(limit, track_past) == line

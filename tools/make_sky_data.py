@@ -1,4 +1,4 @@
-"""Regenerate alpaca_zwo/web/sky_data.json: the stars and constellation lines the page's chart draws.
+"""Regenerate alpaca_zwo/catalogue/sky_data.json: the stars and constellation lines the page's chart draws.
 
 Sources, joined by HIP number:
 - d3-celestial's data/stars.6.json (Olaf Frohn, BSD 3-clause; github.com/ofrohn/d3-celestial, commit
@@ -10,9 +10,9 @@ Sources, joined by HIP number:
   stars/default/hip_pm.dat (Hipparcos proper motions, mas/yr, RA component times cos Dec), as
   tools/make_star_names.py reads them: the search finds the unnamed stars by designation and HIP
   number, and a GoTo on one applies its proper motion;
-- alpaca_zwo/web/star_names.csv (tools/make_star_names.py, IAU WGSN): the names shown and selectable.
+- alpaca_zwo/catalogue/star_names.csv (tools/make_star_names.py, IAU WGSN): the names shown and selectable.
 Kept: every star to V 4.5, and every fainter star a constellation line ends on. No number is typed by hand.
-Run: python tools/make_sky_data.py stars.6.json /usr/share/stellarium > alpaca_zwo/web/sky_data.json
+Run: python tools/make_sky_data.py stars.6.json /usr/share/stellarium > alpaca_zwo/catalogue/sky_data.json
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from pathlib import Path
 MAG_LIMIT = 4.5
 stars_path = Path(sys.argv[1])
 root = Path(sys.argv[2] if len(sys.argv) > 2 else "/usr/share/stellarium")
-names_path = Path(__file__).resolve().parent.parent / "alpaca_zwo/web/star_names.csv"
+names_path = Path(__file__).resolve().parent.parent / "alpaca_zwo/catalogue/star_names.csv"
 
 catalogue: dict[int, tuple[float, float, float]] = {}
 for feature in json.loads(stars_path.read_text(encoding="utf-8"))["features"]:

@@ -1,4 +1,4 @@
-"""Regenerate alpaca_zwo/web/star_names.csv: the IAU-named stars the page's search finds.
+"""Regenerate alpaca_zwo/catalogue/star_names.csv: the IAU-named stars the page's search finds.
 
 Sources, joined by HIP number:
 - the IAU Catalog of Star Names (IAU-CSN, IAU WGSN, version of 2018-09-07), CC BY: names, Vmag, HIP,
@@ -7,7 +7,7 @@ Sources, joined by HIP number:
 - Stellarium's data (Debian's stellarium-data): stars/default/hip_pm.dat, the Hipparcos proper motions
   (mas/yr, RA component times cos Dec), and stars/default/name.fab, the Bayer and Flamsteed designations.
 No position is typed by hand: every number comes from those files.
-Run: python tools/make_star_names.py IAU-CSN.txt /usr/share/stellarium > alpaca_zwo/web/star_names.csv
+Run: python tools/make_star_names.py IAU-CSN.txt /usr/share/stellarium > alpaca_zwo/catalogue/star_names.csv
 """
 
 from __future__ import annotations

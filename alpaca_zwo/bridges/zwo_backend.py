@@ -7,7 +7,7 @@ mount with Alpaca clients:
 * Queries are answered from the state snapshot (``telescope.mount.state`` and the Telescope's
   getters), never with a serial exchange per program; the few settings the poller does not read
   (meridian, limits, heavy duty, buzzer, daylight saving) come from one cached read
-  (``Connection.mount_settings``).
+  (``StoredSettings.current``).
 * Motion and settings go through the Telescope's public methods, so horizon and altitude limits,
   the parked state, the MoveAxis watchdog and abort-from-anyone apply exactly as for Alpaca.
 * Commands that change the mount for every program (``Effect.GUARDED`` in the command table) are
@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 from .. import sky
 from .._exceptions import (
     AlpacaError,
+    AlpacaZwoError,
     DriverError,
     InvalidOperation,
     InvalidValue,
@@ -418,9 +419,9 @@ class TelescopeBackend:
     # -- the settings stored in the mount: read from the shared cache, written only when allowed ---
 
     def _stored(self, name: str) -> Any:
-        """One of the mount's stored settings, as last read (``Connection.mount_settings``); no reply
+        """One of the mount's stored settings, as last read (``StoredSettings.current``); no reply
         while the mount has not answered it."""
-        settings: MountSettings = self.telescope.connection.mount_settings()
+        settings: MountSettings = self.telescope.stored_settings.current()
         value = getattr(settings, name)
         if value is None:
             raise NoReply
@@ -431,10 +432,11 @@ class TelescopeBackend:
         return meridian
 
     def set_meridian(self, settings: MeridianSettings) -> bool:
-        """Through the Telescope's connection, which remembers it for DestinationSideOfPier."""
+        """Through the stored settings' owner: checked, saved in the configuration, written, and in force
+        for DestinationSideOfPier; refused, out of range, not saved or the link failing: the mount's 0."""
         try:
-            self.telescope.connection.set_meridian_settings(settings)
-        except AlpacaError:
+            self.telescope.stored_settings.apply({"meridian": settings})
+        except AlpacaZwoError:
             return False
         return True
 

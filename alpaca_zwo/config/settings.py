@@ -384,7 +384,7 @@ class EmulatorSettings:
 
     speed: float = _setting(1.0, _float(0.01, 10000.0))  # clock rate relative to real time
     baud: int = _setting(0, _int(1200, 921600, also=(0,)))  # 0 = unpaced, in-process
-    #: The firmware build to behave as, by name (``alpaca_zwo.firmware.PRESETS``: version, model and quirks).
+    #: The firmware build to behave as, by name (``alpaca_zwo.zwo.firmware.PRESETS``: version, model and quirks).
     preset: str = _setting(DEFAULT_PRESET, _choice(*PRESETS))
     #: The version ``:GV#`` reports and the model; empty: the preset's own.
     firmware: str = _setting("", _str(pattern=r"\d+\.\d+\.\d+", hint="like '1.9.0'"))

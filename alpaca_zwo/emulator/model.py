@@ -73,8 +73,8 @@ from .state import (
     SYNC_MAX_DEG,
     SYNC_POLE_DEG,
     TRACK_RATES,
+    AxisPulse,
     Persistent,
-    Pulse,
     Slew,
 )
 
@@ -258,7 +258,7 @@ class MountModel:
         limit = float(settings.limit_degrees)
         if self.firmware.goto_flip_at_meridian:
             return min(limit, 0.0)
-        return limit if limit < 0.0 or settings.track_after else 0.0
+        return sky.flip_line_deg(limit, settings.track_after)
 
     def home(self) -> bool:
         """``:hC#``: slew to the mechanical home; tracking goes off on arrival."""
@@ -418,13 +418,13 @@ class MountModel:
             rate = self.flash.persist.guide_rate * SIDEREAL_DEG_S
             if mech.altaz():
                 # Accepted and timed, but no measurable movement in alt-az (field notes §2.5, PT).
-                mech.pulses[axis] = Pulse(0.0, mech.t + milliseconds / 1000.0)
+                mech.pulses[axis] = AxisPulse(0.0, mech.t + milliseconds / 1000.0)
                 return True
             if direction in "ew":
                 velocity = rate * mech.ra_sign() * (-1.0 if direction == "e" else 1.0)
             else:
                 velocity = self._dec_velocity(direction, rate)
-            mech.pulses[axis] = Pulse(velocity, mech.t + milliseconds / 1000.0)
+            mech.pulses[axis] = AxisPulse(velocity, mech.t + milliseconds / 1000.0)
             return True
 
     def pulsing(self) -> tuple[bool, bool]:

@@ -26,8 +26,8 @@ from .state import (
     SNAP_DEG,
     STEADY_STEP_S,
     TRACKING_HORIZON_SLACK_DEG,
+    AxisPulse,
     Hemisphere,
-    Pulse,
     Slew,
     ramp,
 )
@@ -50,7 +50,7 @@ class Mechanics:
     slew: Slew | None
     braking_until: float  # emulated time a slew stopped by :Q# ends braking (GOTO state held till then)
     moves: list[float | None]  # manual moves per axis, deg/s of the axis (alt-az: of the sky)
-    pulses: list[Pulse | None]
+    pulses: list[AxisPulse | None]
     speed: float  # the latched :Rn#/:Rv# speed, multiples of sidereal
     disturbed_t: float  # when a slew, move or untracked motion last ran (alt-az zenith rule)
     axis_speed: list[float | None]  # per-axis :Rvr#/:Rvd# speeds, overriding ``speed``

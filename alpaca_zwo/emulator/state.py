@@ -99,7 +99,7 @@ class Slew:
 
 
 @dataclass
-class Pulse:
+class AxisPulse:
     velocity: float  # mechanical deg/s added to the axis
     end: float  # emulated seconds
 

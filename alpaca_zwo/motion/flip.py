@@ -8,7 +8,7 @@ other (horizon limits, aborts, landing, Slewing), and put the mount's own settin
 motion ends however it ends (arrived, aborted, replaced, failed). A GOTO that needs no temporary
 setting restores a pending one first, so no other GOTO ever runs under it. If the link is gone
 before the restore, the next connection writes the configured setting anyway
-(``telescope.connection.Connection._load_mount_settings``).
+(``telescope.stored_settings.StoredSettings.push_configured``).
 
 Lock: ``_lock`` serialises "write the setting, start the GOTO" against the restore, so a restore
 owed to an earlier flip can never land between a new flip's setting and its GOTO. It is held across

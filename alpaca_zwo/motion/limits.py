@@ -56,8 +56,7 @@ def _flip_limit(settings: Settings, state: MountState) -> float | None:
     if state.status is not None and state.status.mode is MountMode.ALTAZ:
         return None
     limits = settings.limits
-    limit = float(limits.meridian_limit_deg)
-    return limit if limit < 0.0 or limits.meridian_track_past else 0.0
+    return sky.flip_line_deg(float(limits.meridian_limit_deg), limits.meridian_track_past)
 
 
 class Limits:

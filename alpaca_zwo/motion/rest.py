@@ -27,14 +27,14 @@ REST_READINGS = 3
 
 
 @dataclass(frozen=True)
-class Reading:
+class PositionReading:
     t: float
     ra: float
     dec: float
     tracking: bool
 
 
-def _displacement(a: Reading, b: Reading) -> tuple[float, float]:
+def _displacement(a: PositionReading, b: PositionReading) -> tuple[float, float]:
     """Movement between readings in degrees, in the frame the mount holds still when at rest."""
     dt = b.t - a.t
     d_ra_h = _wrap12(b.ra - a.ra)
@@ -43,7 +43,7 @@ def _displacement(a: Reading, b: Reading) -> tuple[float, float]:
     return d_ra_h * 15.0, b.dec - a.dec
 
 
-def _stable(a: Reading, b: Reading) -> bool:
+def _stable(a: PositionReading, b: PositionReading) -> bool:
     d_ra_deg, d_dec = _displacement(a, b)
     return abs(d_ra_deg) <= REST_RA_S * 15.0 / 3600.0 and abs(d_dec) <= REST_DEC_ARCSEC / 3600.0
 
@@ -56,7 +56,7 @@ class RestDetector:
 
     def __init__(self, *, mount: Mount) -> None:
         self.mount = mount
-        self.readings: deque[Reading] = deque(maxlen=8)
+        self.readings: deque[PositionReading] = deque(maxlen=8)
 
     def record(self, state: MountState) -> None:
         """Keep the newest reading of ``state``, if it is new."""
@@ -65,7 +65,7 @@ class RestDetector:
         if self.readings and self.readings[-1].t >= state.position_time:
             return
         tracking = bool(state.tracking and state.tracking.on)
-        self.readings.append(Reading(state.position_time, state.raw_ra, state.raw_dec, tracking))
+        self.readings.append(PositionReading(state.position_time, state.raw_ra, state.raw_dec, tracking))
 
     def at_rest(self, motion: Motion, now: float) -> bool:
         """Readings after ``rest_from`` stable in the frame the mount holds still, and the

@@ -160,6 +160,11 @@ class MotionSupervisor:
         """The stop generation now (read-only; ``stops`` bumps it)."""
         return self.stops.value
 
+    def running(self) -> Motion | None:
+        """The slew, park, home or stop running now (None at rest or in a manual move only): one
+        reference, read without the lock. Its ``done`` and ``error`` say how it ends."""
+        return self.motion
+
     def _moving(self) -> bool:
         """A motion of ours (slew, home, park, stop) or a manual move runs: offsets start afresh after it."""
         return self.motion is not None or bool(self.moves)

@@ -441,7 +441,7 @@ class Mount:
         ha = sky.hour_angle(self.lst(), mount_ra - self._alignment[0])
         meridian = self._meridian or MeridianSettings()
         limit = float(meridian.limit_degrees)
-        past_limit = limit if limit < 0.0 or meridian.track_after else 0.0  # A1: flips past the limit
+        past_limit = sky.flip_line_deg(limit, meridian.track_after)  # A1: flips past the limit
         at_meridian = min(limit, 0.0)  # A2: flips at the meridian
         side = sky.goto_pier_side(ha, PierSide.UNKNOWN, past_limit)
         return side, side is sky.goto_pier_side(ha, PierSide.UNKNOWN, at_meridian)

@@ -1,4 +1,4 @@
-"""Responder: what the server does to the mounts when the safety monitor turns unsafe (``on_unsafe``).
+"""SafetyResponder: what the server does to the mounts when the safety monitor turns unsafe (``on_unsafe``).
 
 Rules (README, *Observatory*), per unsafe *episode* (from the verdict turning unsafe to it turning
 anything else) and per telescope:
@@ -35,7 +35,7 @@ from ..motion import MotionKind
 from ..motion.interlock import Interlock, SafetyState, Verdict
 from ..telescope.device import Telescope
 
-__all__ = ["INTERLOCK_CLIENT", "Responder"]
+__all__ = ["INTERLOCK_CLIENT", "SafetyResponder"]
 
 log = logging.getLogger(__name__)
 
@@ -45,7 +45,7 @@ RETRY_MIN_S = 2.0
 TICK_S = 1.0
 
 
-class Responder:
+class SafetyResponder:
     """Carries out ``on_unsafe`` on every telescope (see the module docstring); ``record(kind, text)``
     reports each step for the page."""
 

@@ -34,7 +34,7 @@ from ..config.settings import SafetySettings, Settings
 from ..config.store import SettingsStore
 from ..motion.interlock import Interlock, SafetyState, Verdict
 
-__all__ = ["SHUTTER_NAMES", "Reading", "SafetyWatch", "judge"]
+__all__ = ["SHUTTER_NAMES", "DeviceReading", "SafetyWatch", "judge"]
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +49,7 @@ def _utc_now() -> datetime:
 
 
 @dataclass
-class Reading:
+class DeviceReading:
     """One polled device: its last good answer and its last error, with their times (monotonic)."""
 
     role: str  # "monitor" or "roof"
@@ -68,7 +68,7 @@ class Reading:
                 "error": self.error}
 
 
-def judge(reading: Reading, now: float, started: float, unreachable_s: float) -> tuple[SafetyState, str]:
+def judge(reading: DeviceReading, now: float, started: float, unreachable_s: float) -> tuple[SafetyState, str]:
     """One device's say: (state, reason) by its last answer, that answer's age and its errors."""
     if reading.answered_at is not None and now - reading.answered_at <= unreachable_s:
         return (SafetyState.SAFE if reading.ok else SafetyState.UNSAFE), reading.answer
@@ -90,7 +90,7 @@ class SafetyWatch:
         self.client_id = random.randint(1, 65535)  # one ClientID for this server's reads of the devices
         self._lock = threading.Lock()  # guards the readings, the events and the configuration in use
         self._publish_lock = threading.Lock()  # one verdict change at a time (the poller, a settings change)
-        self._readings: list[Reading] = []
+        self._readings: list[DeviceReading] = []
         self._config: tuple[str, str] = ("", "")
         self._started = time.monotonic()
         self.events: collections.deque[dict[str, str]] = collections.deque(maxlen=EVENTS_KEPT)
@@ -126,7 +126,7 @@ class SafetyWatch:
             if config == self._config and self._readings:
                 return False
             self._config = config
-            self._readings = [Reading(role, url) for role, url in (("monitor", safety.monitor),
+            self._readings = [DeviceReading(role, url) for role, url in (("monitor", safety.monitor),
                                                                     ("roof", safety.roof)) if url]
             self._started = time.monotonic()
         if any(config):
@@ -156,7 +156,7 @@ class SafetyWatch:
             self._read(reading, timeout)
         return self._publish(safety)
 
-    def _read(self, reading: Reading, timeout: float) -> None:
+    def _read(self, reading: DeviceReading, timeout: float) -> None:
         device = RemoteDevice(reading.url, client_id=self.client_id, timeout=timeout)
         try:
             if not reading.connected_sent:
@@ -173,7 +173,7 @@ class SafetyWatch:
         reading.answered_at, reading.answered_utc = time.monotonic(), _utc_now()
 
     @staticmethod
-    def _connect(device: RemoteDevice, reading: Reading) -> None:
+    def _connect(device: RemoteDevice, reading: DeviceReading) -> None:
         """Connected=true; a device that refuses it may still answer, so the refusal is only noted."""
         reading.connected_sent = True
         try:
@@ -181,14 +181,14 @@ class SafetyWatch:
         except RemoteError as exc:
             log.info("safety monitor: %s %s: Connected=true refused (%s)", reading.role, reading.url, exc)
 
-    def _is_safe(self, device: RemoteDevice, reading: Reading) -> tuple[bool, str]:
+    def _is_safe(self, device: RemoteDevice, reading: DeviceReading) -> tuple[bool, str]:
         safe = device.get_bool("issafe")
         if not safe and not device.get_bool("connected"):  # disconnected (by another program?): unsafe by rule
             self._connect(device, reading)
             safe = device.get_bool("issafe")
         return safe, f"IsSafe={'true' if safe else 'false'}"
 
-    def _shutter(self, device: RemoteDevice, reading: Reading) -> tuple[bool, str]:
+    def _shutter(self, device: RemoteDevice, reading: DeviceReading) -> tuple[bool, str]:
         try:
             status = device.get_int("shutterstatus")
         except RemoteError as exc:
@@ -200,7 +200,7 @@ class SafetyWatch:
 
     # -- the verdict ----------------------------------------------------------------------------
 
-    def _verdict(self, readings: list[Reading]) -> tuple[SafetyState, str, str]:
+    def _verdict(self, readings: list[DeviceReading]) -> tuple[SafetyState, str, str]:
         if not readings:
             return SafetyState.OFF, "", ""
         now, started = time.monotonic(), self._started
@@ -219,7 +219,7 @@ class SafetyWatch:
                 readings = list(self._readings)
             return self._publish_locked(readings, safety)
 
-    def _publish_locked(self, readings: list[Reading], safety: SafetySettings) -> Verdict:
+    def _publish_locked(self, readings: list[DeviceReading], safety: SafetySettings) -> Verdict:
         state, source, reason = self._verdict(readings)
         previous = self.interlock.verdict
         since = previous.since if previous.state is state else (None if state is SafetyState.OFF else _utc_now())

@@ -37,6 +37,7 @@ from .._exceptions import (
 )
 from ..config.settings import Settings, settings_from_dict, settings_to_dict
 from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, parse_status
+from .stored_settings import CHECKS
 
 if TYPE_CHECKING:
     from ..config.store import SettingsStore
@@ -44,16 +45,18 @@ if TYPE_CHECKING:
     from ..mount.operations import Mount
     from ..mount.state import MountSettings
     from .connection import Connection
+    from .stored_settings import StoredSettings
 
 
-class Telescope(Protocol):
+class ActionDevice(Protocol):
     """What an action uses of its device (``device.Telescope`` is one). Declared here so that this
     module sits below the Telescope that dispatches to it, and the two import no circle."""
 
     mount: Mount
     store: SettingsStore
     motion: MotionSupervisor
-    connection: Connection  # who holds the device connected; the mount's meridian setting
+    connection: Connection  # who holds the device connected
+    stored_settings: StoredSettings  # the settings stored in the mount: their one check and write path
 
     @property
     def settings(self) -> Settings: ...
@@ -80,15 +83,6 @@ def _is_number(value: object) -> bool:
     return isinstance(value, float) and math.isfinite(value)
 
 
-def _integer(low: int, high: int) -> Callable[[object], int]:
-    def check(value: object) -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            raise ValueError(f"must be an integer from {low} to {high}, got {json.dumps(value)}")
-        return value
-
-    return check
-
-
 def _number(low: float, high: float) -> Callable[[object], float]:
     def check(value: object) -> float:
         if not _is_number(value) or not low <= value <= high:  # type: ignore[operator]
@@ -96,12 +90,6 @@ def _number(low: float, high: float) -> Callable[[object], float]:
         return float(value)  # type: ignore[arg-type]
 
     return check
-
-
-def _boolean(value: object) -> bool:
-    if not isinstance(value, bool):
-        raise ValueError(f"must be true or false, got {json.dumps(value)}")
-    return value
 
 
 def _choice(*names: str) -> Callable[[object], str]:
@@ -135,19 +123,19 @@ class Field:
 # ================================================================================================
 
 
-def _settings(telescope: Telescope) -> MountSettings:
+def _settings(telescope: ActionDevice) -> MountSettings:
     """The settings stored in the mount (a few short queries); a value it did not report is None."""
     return telescope.mount.read_settings()
 
 
-def _require_meridian_firmware(telescope: Telescope) -> None:
+def _require_meridian_firmware(telescope: ActionDevice) -> None:
     info = telescope.mount.state.info
     if info is not None and not info.has_meridian_settings:
         raise MemberNotImplemented(f"this {info.model} has firmware {info.firmware}; meridian settings "
                                    "(:GTa#/:STa) need firmware 1.2.4 or later")
 
 
-def _refuse_in_altaz(telescope: Telescope, action: str) -> None:
+def _refuse_in_altaz(telescope: ActionDevice, action: str) -> None:
     """Meridian settings belong to a German mount: in alt-az mode (``Z`` in ``:GU#``) there is no meridian
     to stop at or flip over, so the action is refused before anything is sent."""
     status = telescope.mount.state.status
@@ -156,7 +144,7 @@ def _refuse_in_altaz(telescope: Telescope, action: str) -> None:
                                "flip (switch to equatorial mode with zwo:MountMode and restart the mount to use it)")
 
 
-def _save(telescope: Telescope, action: str, section: str, values: Mapping[str, object]) -> Settings:
+def _save(telescope: ActionDevice, action: str, section: str, values: Mapping[str, object]) -> Settings:
     """Persist configuration values through the settings store, as the setup page does.
 
     The store validates before it writes, so a refused value (InvalidValue) leaves both file and
@@ -179,25 +167,25 @@ def _save(telescope: Telescope, action: str, section: str, values: Mapping[str, 
 # ================================================================================================
 
 
-def _read_buzzer(telescope: Telescope) -> Reply:
+def _read_buzzer(telescope: ActionDevice) -> Reply:
     level = _settings(telescope).buzzer
     return {"volume": level, "name": BUZZER_LEVELS[level] if level in (0, 1, 2) else None}
 
 
-def _write_buzzer(telescope: Telescope, changes: Reply) -> None:
-    telescope.mount.set_buzzer(changes["volume"])
+def _write_buzzer(telescope: ActionDevice, changes: Reply) -> None:
+    telescope.stored_settings.apply({"buzzer": changes["volume"]})
 
 
-def _read_heavy_duty(telescope: Telescope) -> Reply:
+def _read_heavy_duty(telescope: ActionDevice) -> Reply:
     on = _settings(telescope).heavy_duty
     return {"enabled": on, "max_speed": None if on is None else (720 if on else 1440)}
 
 
-def _write_heavy_duty(telescope: Telescope, changes: Reply) -> None:
-    telescope.mount.set_heavy_duty(changes["enabled"])
+def _write_heavy_duty(telescope: ActionDevice, changes: Reply) -> None:
+    telescope.stored_settings.apply({"heavy_duty": changes["enabled"]})
 
 
-def _read_meridian(telescope: Telescope) -> Reply:
+def _read_meridian(telescope: ActionDevice) -> Reply:
     _refuse_in_altaz(telescope, "zwo:MeridianSettings")
     _require_meridian_firmware(telescope)
     meridian = _settings(telescope).meridian
@@ -209,53 +197,42 @@ def _read_meridian(telescope: Telescope) -> Reply:
                            "limit_degrees": round(limits.meridian_limit_deg)}}
 
 
-def _write_meridian(telescope: Telescope, changes: Reply) -> None:
+def _write_meridian(telescope: ActionDevice, changes: Reply) -> None:
     _refuse_in_altaz(telescope, "zwo:MeridianSettings")
     _require_meridian_firmware(telescope)
     current = _settings(telescope).meridian or MeridianSettings()
     wanted = MeridianSettings(flip=current.flip,  # "temporarily not supported" by ZWO: kept as it is
                               track_after=changes.get("track_past", current.track_after),
                               limit_degrees=changes.get("limit_degrees", current.limit_degrees))
-    # Mirrored in the configuration, which is pushed to the mount on every connect. Saved first: a
-    # failed save (full disk) then changes nothing; if the mount refuses, the file is put back.
-    limits = telescope.settings.limits
-    before = {"meridian_track_past": limits.meridian_track_past, "meridian_limit_deg": limits.meridian_limit_deg}
-    _save(telescope, "zwo:MeridianSettings", "limits", {"meridian_track_past": wanted.track_after,
-                                                        "meridian_limit_deg": wanted.limit_degrees})
-    try:
-        telescope.connection.set_meridian_settings(wanted)  # remembered for DestinationSideOfPier
-    except Exception:
-        _save(telescope, "zwo:MeridianSettings", "limits", before)
-        raise
+    # Mirrored in the configuration (saved first) and remembered for DestinationSideOfPier by the owner.
+    telescope.stored_settings.apply({"meridian": wanted})
 
 
-def _read_altitude_limits(telescope: Telescope) -> Reply:
+def _read_altitude_limits(telescope: ActionDevice) -> Reply:
     settings = _settings(telescope)
     return {"enabled": settings.limits_enabled, "upper": settings.upper_limit, "lower": settings.lower_limit}
 
 
-def _write_altitude_limits(telescope: Telescope, changes: Reply) -> None:
-    mount = telescope.mount
-    if "upper" in changes:
-        mount.set_upper_limit(changes["upper"])
-    if "lower" in changes:
-        mount.set_lower_limit(changes["lower"])
-    if "enabled" in changes:
-        mount.set_limits_enabled(changes["enabled"])
+#: zwo:AltitudeLimits' keys and the stored settings they are.
+_ALTITUDE_KEYS = {"upper": "upper_limit", "lower": "lower_limit", "enabled": "limits_enabled"}
+
+
+def _write_altitude_limits(telescope: ActionDevice, changes: Reply) -> None:
+    telescope.stored_settings.apply({_ALTITUDE_KEYS[key]: value for key, value in changes.items()})
 
 
 #: Mode asked for with :AA#/:AP# and not yet in effect, per telescope (the mount has no query for it).
-_requested_modes: weakref.WeakKeyDictionary[Telescope, MountMode] = weakref.WeakKeyDictionary()
+_requested_modes: weakref.WeakKeyDictionary[ActionDevice, MountMode] = weakref.WeakKeyDictionary()
 
 
-def _fresh_status(telescope: Telescope) -> tuple[str, MountStatus]:
+def _fresh_status(telescope: ActionDevice) -> tuple[str, MountStatus]:
     """``:GU#`` read now, raw and decoded. Also a round trip: every command sent before it (even a
     no-reply one such as ``:AA#``) has reached the mount by the time this returns."""
     raw = telescope.mount.raw(":GU#")
     return raw, parse_status(raw[:-1] if raw.endswith("#") else raw)
 
 
-def _read_mode(telescope: Telescope, status: MountStatus | None = None) -> Reply:
+def _read_mode(telescope: ActionDevice, status: MountStatus | None = None) -> Reply:
     current = (status or _fresh_status(telescope)[1]).mode
     requested = _requested_modes.get(telescope, current)
     if requested is current:
@@ -267,11 +244,11 @@ def _read_mode(telescope: Telescope, status: MountStatus | None = None) -> Reply
     return reply
 
 
-def _write_mode(telescope: Telescope, changes: Reply) -> None:
+def _write_mode(telescope: ActionDevice, changes: Reply) -> None:
     request_mode(telescope, changes["mode"])
 
 
-def request_mode(telescope: Telescope, name: str) -> None:
+def request_mode(telescope: ActionDevice, name: str) -> None:
     """Send ``:AP#``/``:AA#`` for ``name`` ("equatorial" or "altaz") and remember it as requested: the mount
     applies it only after a restart (field notes §2.8), and then ``:GU#`` shows the new letter."""
     wanted = MountMode.EQUATORIAL if name == "equatorial" else MountMode.ALTAZ
@@ -280,13 +257,13 @@ def request_mode(telescope: Telescope, name: str) -> None:
     log.warning("mount mode %s requested: the mount must be restarted for it to take effect", name)
 
 
-def mode_report(telescope: Telescope, status: MountStatus | None = None) -> Reply:
+def mode_report(telescope: ActionDevice, status: MountStatus | None = None) -> Reply:
     """The zwo:MountMode reply (current mode, requested mode, restart_required and its message); from
     ``status`` when given (the setup page passes the poller's, so its GET costs no exchange), else ``:GU#`` now."""
     return _read_mode(telescope, status)
 
 
-def _read_info(telescope: Telescope) -> Reply:
+def _read_info(telescope: ActionDevice) -> Reply:
     mount = telescope.mount
     info = mount.state.info
     raw, status = _fresh_status(telescope)  # exactly as the mount prints it
@@ -308,16 +285,16 @@ def _read_info(telescope: Telescope) -> Reply:
     }
 
 
-def _read_horizon(telescope: Telescope) -> Reply:
+def _read_horizon(telescope: ActionDevice) -> Reply:
     limits = telescope.settings.limits
     return {"min_altitude_deg": limits.min_altitude_deg, "horizon": [list(p) for p in limits.horizon]}
 
 
-def _write_horizon(telescope: Telescope, changes: Reply) -> None:
+def _write_horizon(telescope: ActionDevice, changes: Reply) -> None:
     _save(telescope, "zwo:Horizon", "limits", changes)
 
 
-def _read_safety(telescope: Telescope) -> Reply:
+def _read_safety(telescope: ActionDevice) -> Reply:
     """The observatory interlock's verdict, as every motion start sees it (motion/interlock.py)."""
     verdict = telescope.motion.interlock.verdict
     return {"safe": verdict.safe, "source": verdict.source,
@@ -336,28 +313,29 @@ class ZwoAction:
 
     name: str
     summary: str
-    read: Callable[[Telescope], Reply]
+    read: Callable[[ActionDevice], Reply]
     fields: Mapping[str, Field] = field(default_factory=dict)
-    write: Callable[[Telescope, Reply], None] | None = None
+    write: Callable[[ActionDevice, Reply], None] | None = None
     example: str = "{}"  # a write example for the documentation
 
 
 ACTIONS: tuple[ZwoAction, ...] = (
     ZwoAction("zwo:BuzzerVolume", "The mount's buzzer volume (:GBu#/:SBu).", _read_buzzer,
-              {"volume": Field(_integer(0, 2), "0 off, 1 low, 2 high")}, _write_buzzer, '{"volume": 1}'),
+              {"volume": Field(CHECKS["buzzer"], "0 off, 1 low, 2 high")}, _write_buzzer, '{"volume": 1}'),
     ZwoAction("zwo:HeavyDutyMode", "Heavy-duty mode: top speed 720x instead of 1440x (:GRl#/:SRl).",
-              _read_heavy_duty, {"enabled": Field(_boolean, "true or false")}, _write_heavy_duty,
+              _read_heavy_duty, {"enabled": Field(CHECKS["heavy_duty"], "true or false")}, _write_heavy_duty,
               '{"enabled": true}'),
     ZwoAction("zwo:MeridianSettings", "Meridian behaviour stored in the mount (:GTa#/:STa, firmware >= 1.2.4); "
               "writes are also saved in the configuration, which is pushed to the mount on every connect.",
               _read_meridian,
-              {"track_past": Field(_boolean, "keep tracking past the meridian up to the limit"),
-               "limit_degrees": Field(_integer(-15, 15), "-15..15; negative stops before the meridian")},
+              {"track_past": Field(CHECKS["meridian.track_after"], "keep tracking past the meridian up to the limit"),
+               "limit_degrees": Field(CHECKS["meridian.limit_degrees"], "-15..15; negative stops before the meridian")},
               _write_meridian, '{"track_past": true, "limit_degrees": 10}'),
     ZwoAction("zwo:AltitudeLimits", "The mount's own altitude limits (:GLC#/:GLH#/:GLL#, :SLE#/:SLD#/:SLH/:SLL).",
               _read_altitude_limits,
-              {"enabled": Field(_boolean, "limits on or off"), "upper": Field(_integer(60, 90), "60..90 degrees"),
-               "lower": Field(_integer(0, 30), "0..30 degrees")},
+              {"enabled": Field(CHECKS["limits_enabled"], "limits on or off"),
+               "upper": Field(CHECKS["upper_limit"], "60..90 degrees"),
+               "lower": Field(CHECKS["lower_limit"], "0..30 degrees")},
               _write_altitude_limits, '{"enabled": true, "upper": 85, "lower": 10}'),
     ZwoAction("zwo:MountMode", "Equatorial or alt-az mode (:AP#/:AA#); a switch takes effect only after the "
               "mount is restarted, which the reply says.", _read_mode,
@@ -413,7 +391,7 @@ def _changes(action: ZwoAction, parameters: str) -> Reply:
     return changes
 
 
-def run_action(telescope: Telescope, name: str, parameters: str) -> str:
+def run_action(telescope: ActionDevice, name: str, parameters: str) -> str:
     """Run one action by name (case-insensitive): write the given keys, then return the state as JSON."""
     action = _BY_NAME.get(name.strip().lower())
     if action is None:

@@ -6,8 +6,6 @@ Locks, both owned by :class:`Connection` (motion has its own, see ``motion/super
 - ``_clients_lock`` guards the client set, the connecting flag and the linger timer; it is never
   held across I/O, so a GET never waits on the serial line.
 - ``_link_lock`` (re-entrant) serialises opening and closing the mount link; it is held across I/O.
-- ``_settings_read_lock`` makes programs asking for the mount's stored settings at once share one read
-  (:meth:`Connection.mount_settings`); held across that read, it takes no other lock.
 
 Lock order: ``_link_lock`` → ``_clients_lock`` (the linger expiry holds both), never the reverse.
 """
@@ -17,24 +15,14 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable
 
-from .._exceptions import (
-    ERR_LINK,
-    AlpacaError,
-    DriverError,
-    LinkError,
-    MountReplyError,
-    NotConnected,
-    ProtocolError,
-    mount_errors,
-)
+from .._exceptions import ERR_LINK, AlpacaError, DriverError, LinkError, MountReplyError, NotConnected, ProtocolError
 from ..clients import ClientKey, current_client
-from ..config.settings import Settings
 from ..motion import MotionSupervisor
 from ..mount.operations import Mount
-from ..mount.state import MountSettings
-from ..zwo.wire_values import MeridianSettings, TrackRate
+from ..zwo.link import LinkCounters, LinkStatus, TraceEntry
+from ..zwo.wire_values import TrackRate
+from .stored_settings import StoredSettings
 
 log = logging.getLogger(__name__)
 
@@ -49,11 +37,11 @@ class Connection:
     response), so this part knows nothing of HTTP or bridges.
     """
 
-    def __init__(self, *, mount: Mount, motion: MotionSupervisor, settings: Callable[[], Settings],
+    def __init__(self, *, mount: Mount, motion: MotionSupervisor, stored: StoredSettings,
                  linger_s: float, link_grace_s: float) -> None:
         self.mount = mount
         self.motion = motion  # stopped when the last client lets go; a running motion keeps the link open
-        self._settings = settings
+        self.stored = stored  # the mount's stored settings: the configured meridian setting is pushed at open
         self.linger_s = linger_s  # the link stays open this long after the last client
         self.link_grace_s = link_grace_s  # Connected stays true this long into a link outage
         self._link_lock = threading.RLock()
@@ -61,10 +49,6 @@ class Connection:
         self._clients: set[ClientKey] = set()
         self._connecting = False
         self._linger_timer: threading.Timer | None = None
-        self._settings_read_lock = threading.Lock()
-        #: The mount's meridian setting as last read or written: DestinationSideOfPier and pier flips
-        #: depend on it.
-        self.meridian = MeridianSettings()
 
     # -- members -----------------------------------------------------------------------------
 
@@ -155,6 +139,18 @@ class Connection:
                     timer.start()
         log.info("client %s disconnected (%d still connected)", key, remaining)
 
+    def link_status(self) -> LinkStatus:
+        """The mount link's state, URL, last error and reconnects (the page; DeviceState's age)."""
+        return self.mount.link.status
+
+    def link_counters(self) -> LinkCounters:
+        """The link's traffic: exchanges, timeouts, resyncs, bytes each way."""
+        return self.mount.link.counters
+
+    def link_trace(self) -> list[TraceEntry]:
+        """The recent serial exchanges, oldest first (the page's trace view)."""
+        return self.mount.link.trace()
+
     def require_connected(self) -> None:
         """The device is connected while at least one client holds it (the link may linger longer)."""
         with self._clients_lock:
@@ -188,49 +184,17 @@ class Connection:
     def _linger_expired(self) -> None:
         with self._link_lock:
             with self._clients_lock:
-                if self._clients or self.motion.motion is not None:
+                if self._clients or self.motion.running() is not None:
                     return
             log.info("no client for %.0f s: closing the mount link", self.linger_s)
             self.mount.disconnect()
 
-    # -- mount settings a connect pushes -----------------------------------------------------
-
-    def _configured_meridian(self) -> MeridianSettings:
-        limits = self._settings().limits
-        return MeridianSettings(False, limits.meridian_track_past, round(limits.meridian_limit_deg))
-
-    def set_meridian_settings(self, meridian: MeridianSettings) -> None:
-        """Write the mount's meridian behaviour and remember it: DestinationSideOfPier depends on it."""
-        with mount_errors("setting the meridian behaviour"):
-            self.mount.set_meridian(meridian)
-        self.meridian = meridian
+    # -- what a connect pushes -------------------------------------------------------------------
 
     def _load_mount_settings(self) -> None:
-        """The configuration is the single source of truth: a replaced or reset mount gets it back."""
-        settings = self.mount.read_settings()
-        wanted = self._configured_meridian()
-        if settings.meridian is not None:
-            self.meridian = settings.meridian
-            if settings.meridian != wanted:
-                try:
-                    self.set_meridian_settings(wanted)
-                    log.info("mount meridian setting %s replaced by the configured %s", settings.meridian, wanted)
-                except DriverError as exc:
-                    log.warning("could not apply the configured meridian setting: %s", exc.message)
+        """The configured meridian setting (the stored settings' owner), then the sidereal rate."""
+        self.stored.push_configured()
         try:
             self.mount.set_tracking_rate(TrackRate.SIDEREAL)  # "start up with a known tracking rate"
         except (LinkError, ProtocolError) as exc:
             log.warning("could not select the sidereal rate: %s", exc)
-
-    # -- the mount's stored settings, for the shared ZWO port (bridges/zwo_backend.py) -------------
-
-    def mount_settings(self) -> MountSettings:
-        """The mount-stored settings from the Mount's one shared cache (the page and the Actions read it
-        too): read from the mount only when never read, marked stale by a command since, or a minute
-        old; that read refills the cache for everyone."""
-        with self._settings_read_lock:
-            cache = self.mount.settings_cache
-            cached = cache.value
-            if cached is None or cache.due():
-                return self.mount.read_settings()
-            return cached

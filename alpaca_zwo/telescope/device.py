@@ -53,6 +53,7 @@ from .capabilities import AXIS_MIN_DEG_S, Capabilities
 from .clock import SiteClock
 from .connection import Connection
 from .raw_commands import RawCommands
+from .stored_settings import StoredSettings
 from .targets import Targets
 
 log = logging.getLogger(__name__)
@@ -72,9 +73,11 @@ class Telescope:
     Built from parts it owns, each answering its own members (the table names the attribute):
     ``connection`` (clients and the mount link; both locks live there), ``capabilities`` (the flags
     that vary, rates, site), ``clock`` (UTCDate, sidereal time), ``targets`` (targets, settle time),
-    ``raw_commands``; and, answering none, ``motion`` (the supervisor; its own locks) and ``flips``
-    (pier flips; its own lock). A caller outside ``telescope/`` uses the part that answers, as a client
-    would: ``telescope.connection.set_connected(True)``, ``telescope.clock.utc_now()``.
+    ``raw_commands``; and, answering none, ``motion`` (the supervisor; its own locks), ``flips``
+    (pier flips; its own lock) and ``stored_settings`` (the settings stored in the mount: the one path
+    the Actions, the page and the shared ZWO port change them by; the meridian setting in force). A
+    caller outside ``telescope/`` uses the part that answers, as a client would:
+    ``telescope.connection.set_connected(True)``, ``telescope.clock.utc_now()``.
     """
 
     def __init__(
@@ -96,7 +99,8 @@ class Telescope:
                                require_connected=self._require_connected)
         self.motion = MotionSupervisor(mount, lambda: self.store.settings, self.clock.lst, self.registry,
                                        name=f"motion-{device_index}", interlock=interlock)
-        self.connection = Connection(mount=mount, motion=self.motion, settings=lambda: self.store.settings,
+        self.stored_settings = StoredSettings(mount=mount, store=store)
+        self.connection = Connection(mount=mount, motion=self.motion, stored=self.stored_settings,
                                      linger_s=linger_s, link_grace_s=link_grace_s)
         self.capabilities = Capabilities(mount=mount, store=store, motion=self.motion,
                                          require_connected=self.connection.require_connected)
@@ -104,7 +108,7 @@ class Telescope:
         self.raw_commands = RawCommands(mount=mount, settings=lambda: self.store.settings,
                                         require_connected=self.connection.require_connected)
         self.flips = PierFlips(mount=mount, motion=self.motion,  # SideOfPier writes
-                               configured=lambda: self.connection.meridian)
+                               configured=lambda: self.stored_settings.meridian)
 
     # -- configuration -----------------------------------------------------------------------
 
@@ -284,13 +288,8 @@ class Telescope:
             return int(PierSide.UNKNOWN)  # no pier side to predict in alt-az mode
         ha = self.mount.mechanical_hour_angle(right_ascension)  # the mount chooses by its axes' hour angle
         side_rule = sky.kept_goto_side if self.capabilities.flips_by_limit() else sky.goto_pier_side
-        return int(side_rule(ha, self._pier(), self._flip_limit_deg()))
+        return int(side_rule(ha, self._pier(), self.stored_settings.flip_line_deg()))
 
-    def _flip_limit_deg(self) -> float:
-        meridian = self.connection.meridian
-        limit = float(meridian.limit_degrees)
-        # A negative limit stops tracking before the meridian whatever the "track past" flag says.
-        return limit if limit < 0.0 or meridian.track_after else 0.0
 
     def alignment_mode(self) -> int:
         self._state()
@@ -388,7 +387,7 @@ class Telescope:
         None where the mount's own setting gives the side DestinationSideOfPier promises."""
         if not self.capabilities.flips_by_limit():
             return None  # alt-az, or firmware without :STa: the mount's own rule
-        ha, side, own_limit = self.mount.mechanical_hour_angle(ra), self._pier(), self._flip_limit_deg()
+        ha, side, own_limit = self.mount.mechanical_hour_angle(ra), self._pier(), self.stored_settings.flip_line_deg()
         limit = sky.side_limit_deg(ha, PierSide.EAST)
         if limit is None or sky.kept_goto_side(ha, side, own_limit) is sky.goto_pier_side(ha, side, own_limit):
             return None

@@ -5,9 +5,10 @@ One module per job: ``files`` (the page and its static files), ``status`` (the s
 (the serial trace), ``logview`` (the log view), ``observatory`` (the safety interlock's state and
 finding its devices), ``http`` (security and JSON plumbing) and
 ``context`` (what the routes share). The package talks to the rest of the server only through
-:mod:`alpaca_zwo.facade`.
+:mod:`alpaca_zwo.facade`; ``goto`` and ``skyview`` read the object catalogue (:mod:`alpaca_zwo.catalogue`,
+pure data and search) on their first request.
 
-May import ``alpaca_zwo.facade`` and itself, nothing else of the package (a test checks).
+May import ``alpaca_zwo.facade``, ``alpaca_zwo.catalogue`` and itself, nothing else of the package (a test checks).
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ from .context import Resource
 from .http import ApiError, api_errors, check_same_origin, iso, send
 
 if TYPE_CHECKING:
-    from .objects import Apparent, SiteZone, SkyObject
+    from ..catalogue.objects import Apparent, SiteZone, SkyObject
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +37,7 @@ PIER_SIDES = {0: "pierEast", 1: "pierWest", -1: "pierUnknown"}
 
 def _objects() -> ModuleType:
     """The catalogues' module, imported on first use (it brings PyEphem and OpenNGC's database)."""
-    from . import objects
+    from ..catalogue import objects
 
     return objects
 

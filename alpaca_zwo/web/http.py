@@ -20,9 +20,8 @@ from urllib.parse import urlsplit
 
 import falcon
 
-from ..facade import (
+from .._exceptions import (
     AlpacaError,
-    ClientKey,
     ConfigError,
     InvalidValue,
     LinkError,
@@ -31,6 +30,7 @@ from ..facade import (
     ProtocolError,
     SettingsNotSaved,
 )
+from ..facade import ClientKey
 
 #: Header every state-changing request must carry; a cross-site form or image cannot add it.
 CSRF_HEADER = "X-Alpaca-Zwo"

@@ -6,7 +6,9 @@ mount-held ones (``meridian``, ``mount_limits``, ``heavy_duty``, ``buzzer``, ``m
 commands for the mount. Everything is checked before anything is applied, so a typo in one field
 never leaves the mount changed and the file not (or the reverse). The file is written first, in one
 atomic update, so a failed save (full disk) changes nothing; if the mount then refuses, the file
-groups are put back.
+groups are put back. The mount-held values are checked, written (and the meridian setting mirrored in
+the file) by their one owner, ``telescope/stored_settings.py``, through the facade, as the Actions and
+the shared ZWO port do.
 """
 
 from __future__ import annotations
@@ -20,17 +22,18 @@ from typing import Any
 import falcon
 
 from ..facade import (
-    SIDEREAL_DEG_S,
     DeviceFacade,
     MeridianSettings,
     MountSettings,
     ServerFacade,
     Settings,
+    check_stored_setting,
     settings_from_dict,
     settings_to_dict,
 )
+from ..sky import SIDEREAL_DEG_S
 from .context import Resource, WebContext
-from .http import ApiError, api_errors, check_same_origin, flag, integer, number, obj, only_keys, send
+from .http import ApiError, api_errors, check_same_origin, number, obj, only_keys, send
 
 log = logging.getLogger(__name__)
 
@@ -53,31 +56,39 @@ MountCommand = tuple[str, Any]
 MountGroup = Callable[[DeviceFacade, Any], list[MountCommand]]
 
 
+def _stored(name: str, key: str, value: Any) -> Any:
+    """A value of a setting stored in the mount, by the one check its owner keeps (400 with the reason)."""
+    try:
+        return check_stored_setting(name, value)
+    except ValueError as exc:
+        raise ApiError(400, f"{key} {exc}") from None
+
+
 def _meridian(device: DeviceFacade, raw: Any) -> list[MountCommand]:
     group = obj(raw, "meridian")
     cached = device.cached_mount_settings
     flip = cached.meridian.flip if cached is not None and cached.meridian is not None else False
-    return [("meridian", MeridianSettings(flip=flip, track_after=flag(group, "track_after"),
-                                          limit_degrees=integer(group, "limit_degrees", -15, 15)))]
+    track_after = _stored("meridian.track_after", "track_after", group.get("track_after"))
+    limit = _stored("meridian.limit_degrees", "limit_degrees", group.get("limit_degrees"))
+    return [("meridian", MeridianSettings(flip=flip, track_after=track_after, limit_degrees=limit))]
+
+
+#: The page's mount_limits keys and the stored settings they are, in the order they are written.
+LIMIT_KEYS = {"upper": "upper_limit", "lower": "lower_limit", "enabled": "limits_enabled"}
 
 
 def _mount_limits(device: DeviceFacade, raw: Any) -> list[MountCommand]:
     group = obj(raw, "mount_limits")
-    only_keys(group, {"enabled", "upper", "lower"}, "mount_limits key(s)")
-    checks: list[tuple[str, str, Callable[[dict[str, Any], str], Any]]] = [
-        ("upper", "upper_limit", lambda g, k: integer(g, k, 60, 90)),
-        ("lower", "lower_limit", lambda g, k: integer(g, k, 0, 30)),
-        ("enabled", "limits_enabled", flag),
-    ]
-    return [(command, check(group, key)) for key, command, check in checks if key in group]
+    only_keys(group, set(LIMIT_KEYS), "mount_limits key(s)")
+    return [(name, _stored(name, key, group[key])) for key, name in LIMIT_KEYS.items() if key in group]
 
 
 def _heavy_duty(device: DeviceFacade, raw: Any) -> list[MountCommand]:
-    return [("heavy_duty", flag({"heavy_duty": raw}, "heavy_duty"))]
+    return [("heavy_duty", _stored("heavy_duty", "heavy_duty", raw))]
 
 
 def _buzzer(device: DeviceFacade, raw: Any) -> list[MountCommand]:
-    return [("buzzer", integer({"buzzer": raw}, "buzzer", 0, 2))]
+    return [("buzzer", _stored("buzzer", "buzzer", raw))]
 
 
 def _mode(device: DeviceFacade, raw: Any) -> list[MountCommand]:
@@ -118,12 +129,8 @@ def plan_change(device: DeviceFacade, body: dict[str, Any]) -> SettingsChange:
     mount_groups = [name for name in MOUNT_GROUPS if name in body]
     if mount_groups and not device.running:
         raise ApiError(409, "these settings are stored in the mount: connect the mount first")
+    # A meridian setting is mirrored in the file by the stored settings' owner, as it writes it.
     commands = [command for name in mount_groups for command in MOUNT_GROUPS[name](device, body[name])]
-    meridian = next((value for name, value in commands if name == "meridian"), None)
-    if isinstance(meridian, MeridianSettings):
-        # Mirrored in the file, so the setting is known (and shown) while the mount is away.
-        file_groups["limits"] = {**file_groups.get("limits", {}), "meridian_limit_deg": meridian.limit_degrees,
-                                 "meridian_track_past": meridian.track_after}
     site = file_groups.pop("site", {})
     only_keys(site, set(SITE_RANGES), "site key(s)")
     entry = file_groups.pop("device", None)
@@ -178,8 +185,10 @@ def change_settings(web: WebContext, device: DeviceFacade, body: dict[str, Any])
                 raise ApiError(400, f"invalid setting: {exc}") from None
             web.facade.update_settings(merge)
         try:
+            device.apply_mount_settings({name: value for name, value in change.mount if name != "mode"})
             for name, value in change.mount:
-                device.apply_mount_setting(name, value)
+                if name == "mode":
+                    device.request_mode(value)
             if change.site:
                 device.set_site(change.site)
         except Exception:

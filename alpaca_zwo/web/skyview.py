@@ -17,7 +17,6 @@ import math
 import threading
 from datetime import datetime, timezone
 from functools import lru_cache
-from pathlib import Path
 from typing import Any
 
 import falcon
@@ -25,7 +24,6 @@ import falcon
 from .context import Resource
 from .http import ApiError, api_errors, iso, send
 
-DATA = Path(__file__).with_name("sky_data.json")
 BODIES = ("Sun", "Moon", "Mercury", "Venus", "Mars", "Jupiter", "Saturn", "Uranus", "Neptune")
 
 
@@ -33,7 +31,9 @@ BODIES = ("Sun", "Moon", "Mercury", "Venus", "Mars", "Jupiter", "Saturn", "Uranu
 def catalogue() -> dict[str, Any]:
     """The stars ([hip, ra°, dec°, vmag, name|null, designations, pm RA, pm Dec], brightest first) and the
     lines (index pairs)."""
-    data: dict[str, Any] = json.loads(DATA.read_text(encoding="utf-8"))
+    from ..catalogue import data_text
+
+    data: dict[str, Any] = json.loads(data_text("sky_data.json"))
     return data
 
 
@@ -41,7 +41,7 @@ def catalogue() -> dict[str, Any]:
 def deep_sky() -> list[list[Any]]:
     """The chart's deep-sky objects: [id, name, label, kind, shape, ra°, dec°, mag|null, size°], brightest
     first (none without pyongc)."""
-    from .deepsky import chart_objects
+    from ..catalogue.deepsky import chart_objects
 
     return [[c.obj.id, c.obj.name, c.label, c.obj.kind, c.shape, round((c.obj.ra_hours or 0.0) * 15.0, 4),
              round(c.obj.dec_deg or 0.0, 4), None if c.obj.magnitude is None else round(c.obj.magnitude, 1),
@@ -76,9 +76,9 @@ def _altaz(bodies: list[Any], obs: Any) -> list[list[float]]:
 def sky_now(latitude: float, longitude: float, elevation: float, when: datetime) -> dict[str, Any]:
     """Alt/az (degrees, 0.01°) of the catalogue's stars and deep-sky objects (in their order) and of the
     bodies, at ``when``."""
-    from .objects import Site, _observer
+    from ..catalogue.objects import Site, observer
 
-    obs = _observer(Site(latitude, longitude, elevation), when)
+    obs = observer(Site(latitude, longitude, elevation), when)
     with _bodies_lock:  # PyEphem bodies hold their last computation: one request at a time uses them
         if not _star_bodies:
             _star_bodies.extend(_fixed_bodies([(s[1], s[2]) for s in catalogue()["stars"]]))

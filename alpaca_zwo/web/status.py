@@ -14,7 +14,6 @@ from typing import Any
 import falcon
 
 from ..facade import (
-    SOLAR_SECONDS_PER_SIDEREAL_SECOND,
     ClientKey,
     ClockView,
     DeviceFacade,
@@ -23,11 +22,9 @@ from ..facade import (
     MountState,
     ServerFacade,
     Settings,
-    equatorial_to_horizontal,
     horizon_altitude_at,
-    hour_angle,
-    local_sidereal_time,
 )
+from ..sky import SOLAR_SECONDS_PER_SIDEREAL_SECOND, equatorial_to_horizontal, hour_angle, local_sidereal_time
 from .context import Resource
 from .http import PAGE_TAG, api_errors, finite, iso, send
 
@@ -187,16 +184,9 @@ def flags_view(state: MountState) -> dict[str, Any]:
 
 def meridian_view(facade: ServerFacade, device: DeviceFacade, ha: float | None,
                   counting_down: bool) -> dict[str, Any]:
-    """The flip limit in force (the mount's own setting when known) and the time left to reach it."""
-    cached = device.cached_mount_settings
-    if cached is not None and cached.meridian is not None:
-        track_after, limit = cached.meridian.track_after, float(cached.meridian.limit_degrees)
-    else:
-        limits = facade.settings.limits
-        track_after, limit = limits.meridian_track_past, limits.meridian_limit_deg
-    # The line the Telescope predicts flips with (DestinationSideOfPier): the meridian itself
-    # unless the mount may track past it.
-    effective = limit if track_after else 0.0
+    """The flip line in force (by the mount's own setting when known) and the time left to reach it:
+    the line the Telescope predicts flips with (DestinationSideOfPier), by the same rule."""
+    track_after, effective = device.flip_line()
     minutes = None
     if counting_down and ha is not None:
         # HA grows one sidereal hour per 0.99727 solar hours while tracking.

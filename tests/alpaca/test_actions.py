@@ -1,4 +1,4 @@
-"""The ZWO Actions (alpaca_zwo/actions.py) through alpyca, on a real server with the built-in emulator.
+"""The ZWO Actions (alpaca_zwo/telescope/actions.py) through alpyca, on a real server with the built-in emulator.
 
 Every read is compared with the emulator's own state and every write is checked there (and in the
 config file for server settings). Bad parameters must be InvalidValue with nothing sent to the

@@ -21,15 +21,15 @@ from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.remote.webelement import WebElement
 from selenium.webdriver.support.ui import WebDriverWait
 
+from alpaca_zwo.catalogue import objects
 from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
 from alpaca_zwo.emulator import MountModel
-from alpaca_zwo.web import objects
+from tests.catalogue.test_objects import separation_arcsec, skyfield_place
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
 from tests.support.sites import EQUATOR, NORTH, SYDNEY, Site
 from tests.web.test_setup_api import Client
 from tests.web.test_setup_goto import LATITUDE, SPEED, _longitude_putting, _truth_place
-from tests.web.test_sky_objects import separation_arcsec, skyfield_place
 
 TIMEOUT = 15
 SLEW_TIMEOUT = 120

@@ -18,8 +18,8 @@ from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.support.ui import WebDriverWait
 
+from alpaca_zwo.catalogue import objects
 from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
-from alpaca_zwo.web import objects
 from tests.conftest import ServerFactory, make_settings
 from tests.web.test_setup_api import Client
 

@@ -26,15 +26,15 @@ from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.support.ui import WebDriverWait
 from skyfield.api import Star, wgs84
 
+from alpaca_zwo.catalogue import objects
 from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
-from alpaca_zwo.web import objects
 from alpaca_zwo.web.skyview import catalogue
 from tests.browser.pixels import rgb_pixels
+from tests.catalogue.test_objects import EPH, SKYFIELD_BODIES, TS
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
 from tests.web.test_setup_api import Client
 from tests.web.test_setup_goto import LATITUDE, _longitude_putting
-from tests.web.test_sky_objects import EPH, SKYFIELD_BODIES, TS
 
 TIMEOUT = 20
 SIZES = {"phone": (390, 844), "desktop": (1280, 900)}

@@ -63,7 +63,7 @@ def test_defaults_match_the_documented_values() -> None:
     )
     assert (s.safety.moveaxis_watchdog_s, s.safety.on_shutdown, s.safety.guide_max_ms) == (15.0, "stop", 60000)
     assert (s.logging.level, s.logging.file, s.logging.trace_size) == ("INFO", "", 2000)
-    # Model and firmware version come from the preset unless set: one default, in alpaca_zwo.firmware.
+    # Model and firmware version come from the preset unless set: one default, in alpaca_zwo.zwo.firmware.
     assert (s.emulator.speed, s.emulator.baud, s.emulator.preset, s.emulator.firmware, s.emulator.model) == (
         1.0,
         0,

@@ -13,7 +13,7 @@ from alpaca_zwo._exceptions import ConfigError, SafetyRefusal
 from alpaca_zwo.config.settings import SafetySettings, Settings, settings_from_dict
 from alpaca_zwo.config.store import SettingsStore
 from alpaca_zwo.motion.interlock import Interlock, SafetyState, Verdict
-from alpaca_zwo.observatory.watch import Reading, SafetyWatch, judge
+from alpaca_zwo.observatory.watch import DeviceReading, SafetyWatch, judge
 from tests.support.observatory import AlpacaSimulators
 
 
@@ -54,7 +54,7 @@ def test_roof_takes_a_dome_and_the_other_keys_are_checked() -> None:
 
 def test_judge_by_answer_age_and_errors() -> None:
     """The last answer decides for unreachable_s, errors or not; before any answer: unknown, then unsafe."""
-    reading = Reading("monitor", "u")
+    reading = DeviceReading("monitor", "u")
     assert judge(reading, now=10.0, started=0.0, unreachable_s=30.0)[0] is SafetyState.UNKNOWN
     assert judge(reading, now=31.0, started=0.0, unreachable_s=30.0) == (SafetyState.UNSAFE,
                                                                          "no answer for 31 s (no reply)")

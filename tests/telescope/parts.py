@@ -21,6 +21,7 @@ from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.motion import MotionSupervisor
 from alpaca_zwo.mount.operations import Mount
 from alpaca_zwo.telescope.connection import Connection
+from alpaca_zwo.telescope.stored_settings import StoredSettings
 from alpaca_zwo.zwo.link import Link
 from tests.conftest import make_settings
 
@@ -44,8 +45,12 @@ class Rig:
 
     def connection(self, linger_s: float = 60.0, link_grace_s: float = 30.0) -> Connection:
         """A Connection as the Telescope builds one: the parts' ``require_connected`` is its."""
-        return Connection(mount=self.mount, motion=self.motion, settings=lambda: self.settings, linger_s=linger_s,
+        return Connection(mount=self.mount, motion=self.motion, stored=self.stored_settings(), linger_s=linger_s,
                           link_grace_s=link_grace_s)
+
+    def stored_settings(self) -> StoredSettings:
+        """The mount's stored settings' owner, as the Telescope builds it."""
+        return StoredSettings(mount=self.mount, store=self.store)
 
 
 def closed_port() -> int:

@@ -471,6 +471,26 @@ def test_mount_settings_round_trip(connected: Client) -> None:
     assert connected.value("destinationsideofpier", RightAscension=ra, Declination=40) == int(sky.PierSide.EAST)
 
 
+def test_the_page_and_destinationsideofpier_draw_one_flip_line(connected: Client) -> None:
+    """A negative limit is the flip line whatever "track past" says (ZWO: "stop n° before the meridian";
+    sky.flip_line_deg). The page once drew the meridian for it (``limit if track_after``) while
+    DestinationSideOfPier predicted with the limit: a target 4.5° before the meridian read pierEast from
+    DestinationSideOfPier and "before the flip line" on the page."""
+    connected.change({"meridian": {"track_after": False, "limit_degrees": -10}})
+    status = connected.status()
+    assert status["meridian"]["track_after"] is False
+    assert status["meridian"]["limit_deg"] == -10
+    assert status["sky"]["flip_line"], "the page draws the flip line 10° before the meridian"
+    lst = connected.value("siderealtime")
+
+    def destination(ha_hours: float) -> int:
+        return int(connected.value("destinationsideofpier", RightAscension=(lst - ha_hours) % 24, Declination=40))
+
+    # Either side of the page's line, DestinationSideOfPier agrees with it (HA -0.3 h = -4.5°, -0.9 h = -13.5°).
+    assert destination(-0.3) == int(sky.PierSide.EAST)
+    assert destination(-0.9) == int(sky.PierSide.WEST)
+
+
 def test_horizon_limits_refuse_gotos(connected: Client) -> None:
     s = connected.change({"limits": {"min_altitude_deg": 20, "horizon": [[90, 30], [270, 5]]}})
     assert s["limits"]["horizon"] == [[90.0, 30.0], [270.0, 5.0]]
@@ -699,15 +719,23 @@ def test_status_never_waits_for_the_mount(connected: Client) -> None:
 
 
 def test_the_web_package_talks_to_the_server_only_through_the_facade() -> None:
-    """Layering: web/ may import the facade and itself, never the mount, link or Telescope directly."""
+    """Layering: web/ may import the facade and itself, never the mount, link or Telescope directly; besides,
+    only what holds no server state: the errors, the pure sky arithmetic and the object catalogue."""
     package = Path(__file__).resolve().parents[2] / "alpaca_zwo" / "web"
+    stateless = ("..facade", ".._exceptions", "..sky", "..catalogue")
     for module in sorted(package.glob("*.py")):
         tree = ast.parse(module.read_text(), str(module))
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom) and node.level:
                 target = "." * node.level + (node.module or "")
-                assert node.level == 1 or target == "..facade", f"{module.name} imports {target}"
+                allowed = node.level == 1 or target in stateless or target.startswith("..catalogue.")
+                assert allowed, f"{module.name} imports {target}"
             elif isinstance(node, ast.Import | ast.ImportFrom):
                 names = [a.name for a in node.names] if isinstance(node, ast.Import) else [node.module or ""]
                 assert not any(n.startswith("alpaca_zwo") for n in names), f"{module.name} imports {names}"
         assert "mount.link" not in module.read_text(), module.name
+        assert ".motion.motion" not in module.read_text(), module.name
+    # Nor does the facade reach past the Telescope's parts into theirs (the link behind the mount, the
+    # supervisor's fields): the parts offer accessors (Connection.link_status, MotionSupervisor.running).
+    facade = (package.parent / "facade.py").read_text()
+    assert ".mount.link." not in facade and ".motion.motion" not in facade

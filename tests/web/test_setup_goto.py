@@ -18,14 +18,14 @@ from typing import Any
 import pytest
 
 from alpaca_zwo import sky
+from alpaca_zwo.catalogue import objects
 from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.web import objects
+from tests.catalogue.test_objects import separation_arcsec, skyfield_place
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
 from tests.web.test_setup_api import Client
-from tests.web.test_sky_objects import separation_arcsec, skyfield_place
 
 LATITUDE = 51.4769
 #: Emulated seconds per real second: landings are judged at the mount's own time, not by timing.
@@ -234,8 +234,8 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
         requests.put(base + "/api/v1/telescope/0/connected", data={{"Connected": "true"}}, timeout=10)
         requests.get(base + "/api/v1/telescope/0/rightascension", timeout=10).raise_for_status()
         requests.get(base + "/setup/api/telescope/0/status", timeout=10).raise_for_status()
-        names = ("ephem", "pyongc", "skyfield", "alpaca_zwo.web.objects", "alpaca_zwo.web.deepsky",
-                 "alpaca_zwo.web.coordinates", "alpaca_zwo.web.naming")
+        names = ("ephem", "pyongc", "skyfield", "alpaca_zwo.catalogue.objects", "alpaca_zwo.catalogue.deepsky",
+                 "alpaca_zwo.catalogue.coordinates", "alpaca_zwo.catalogue.naming")
         before = [m for m in names if m in sys.modules]
         requests.get(base + "/setup/api/objects", params={{"q": "M31"}}, timeout=10).raise_for_status()
         after = [m for m in names if m in sys.modules]
@@ -246,8 +246,8 @@ def test_the_alpaca_server_never_imports_the_catalogues(tmp_path: Path) -> None:
                          check=True)
     seen = json.loads(out.stdout.strip().splitlines()[-1])
     assert seen["before"] == []
-    assert {"ephem", "pyongc", "alpaca_zwo.web.objects", "alpaca_zwo.web.deepsky",  # a search loads them:
-            "alpaca_zwo.web.coordinates"} <= set(seen["after"])  # the check sees
+    assert {"ephem", "pyongc", "alpaca_zwo.catalogue.objects", "alpaca_zwo.catalogue.deepsky",  # a search loads them:
+            "alpaca_zwo.catalogue.coordinates"} <= set(seen["after"])  # the check sees
 
 
 def test_without_pyephem_the_page_says_what_to_install_and_the_rest_serves(tmp_path: Path) -> None:

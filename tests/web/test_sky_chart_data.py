@@ -1,4 +1,4 @@
-"""The sky chart's star list and lines (alpaca_zwo/web/sky_data.json), its deep-sky objects (OpenNGC) and its
+"""The sky chart's star list and lines (alpaca_zwo/catalogue/sky_data.json), its deep-sky objects (OpenNGC) and its
 route (issue 25 item 2, issue 33 item 6).
 
 The star positions are checked against the IAU WGSN's own J2000 places (star_names.csv, another source
@@ -13,9 +13,9 @@ from datetime import datetime, timezone
 import pytest
 from skyfield.api import Star, wgs84
 
-from alpaca_zwo.web import objects
+from alpaca_zwo.catalogue import objects
 from alpaca_zwo.web.skyview import BODIES, catalogue, deep_sky, sky_now
-from tests.web.test_sky_objects import EPH, SKYFIELD_BODIES, TS, separation_arcsec
+from tests.catalogue.test_objects import EPH, SKYFIELD_BODIES, TS, separation_arcsec
 
 SITE = (51.4769, -0.0005, 46.0)
 WHEN = datetime(2026, 11, 26, 1, 30, tzinfo=timezone.utc)

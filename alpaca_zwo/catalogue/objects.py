@@ -26,10 +26,9 @@ import unicodedata
 from collections.abc import Iterable
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone, tzinfo
-from importlib import resources
 from typing import Any
 
-from . import coordinates, deepsky
+from . import coordinates, data_text, deepsky
 from .naming import (
     GREEK,
     GREEK_ABBREV,
@@ -137,7 +136,7 @@ def _star_index() -> _StarIndex:
     by_hip: dict[int, SkyObject] = {}
     names: set[str] = set()
     by_place: dict[tuple[float, float], SkyObject] = {}
-    table = resources.files(__package__).joinpath("star_names.csv").read_text(encoding="utf-8")
+    table = data_text("star_names.csv")
     for line in table.splitlines():
         if not line[:1].isdigit():
             continue
@@ -180,7 +179,7 @@ def _brightness(obj: SkyObject) -> float:
 @functools.lru_cache(maxsize=1)
 def _chart_stars() -> list[list[Any]]:
     """``sky_data.json``'s stars: [hip, ra°, dec°, vmag, name|null, designations, pm RA, pm Dec]."""
-    data = json.loads(resources.files(__package__).joinpath("sky_data.json").read_text(encoding="utf-8"))
+    data = json.loads(data_text("sky_data.json"))
     stars: list[list[Any]] = data["stars"]
     return stars
 
@@ -271,7 +270,7 @@ def find(query: str, limit: int = 8) -> Found:
     return _names_found(text, limit)
 
 
-def _coordinates_found(text: str, readings: list[coordinates.Reading]) -> Found:
+def _coordinates_found(text: str, readings: list[coordinates.CoordinateReading]) -> Found:
     found = tuple((_coordinate_object(r.ra_hours, r.dec_deg, r.ra_unit if r.ambiguous else None), None)
                   for r in readings)
     if len(found) == 1:
@@ -418,7 +417,7 @@ def site_zone(longitude: float, when: datetime, server_zone: tzinfo | None = Non
 # -- apparent place ------------------------------------------------------------------------------------
 
 
-def _observer(site: Site, when: datetime) -> Any:
+def observer(site: Site, when: datetime) -> Any:
     import ephem
 
     obs = ephem.Observer()
@@ -444,7 +443,7 @@ def _ephem_body(obj: SkyObject) -> Any:
 
 def apparent(obj: SkyObject, site: Site, when: datetime) -> Apparent:
     """Topocentric apparent RA/Dec of date, Alt/Az, and the rise/transit/set around ``when``."""
-    obs = _observer(site, when)
+    obs = observer(site, when)
     target = _ephem_body(obj)
     target.compute(obs)
     ra_h = math.degrees(float(target.ra)) / 15.0

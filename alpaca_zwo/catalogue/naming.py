@@ -1,6 +1,7 @@
 """What the search finds and how it compares names: the ``SkyObject`` record and the name keys (issue 33 item 3).
 
-Pure, with no imports of ours: ``objects`` (stars, bodies, the search) and ``deepsky`` (OpenNGC) share it.
+Pure, with no imports of ours but the package's data files: ``objects`` (stars, bodies, the search) and
+``deepsky`` (OpenNGC) share it.
 A name key folds what people type and what catalogues print into one form: case, accents, apostrophes
 and a leading "the" dropped; Greek letters spelled out ("ω Cen", "omega Cen"; OpenNGC's "tet Car" is
 "theta Car"); a constellation's genitive made its abbreviation ("Alpha Centauri" is "alpha cen", "Eta
@@ -13,8 +14,9 @@ import functools
 import re
 import unicodedata
 from dataclasses import dataclass, field
-from importlib import resources
 from typing import Any
+
+from . import data_text
 
 SIDEREAL, LUNAR, SOLAR = 0, 1, 2  # ASCOM DriveRates
 
@@ -70,7 +72,7 @@ def fold(text: str) -> str:
 def _constellations() -> tuple[dict[str, str], re.Pattern[str]]:
     """Folded genitive -> folded abbreviation, and one pattern finding any genitive as whole words."""
     genitives: dict[str, str] = {}
-    table = resources.files(__package__).joinpath("constellations.csv").read_text(encoding="utf-8")
+    table = data_text("constellations.csv")
     for line in table.splitlines():
         if line[:1].isupper() and not line.startswith("abbr,"):
             abbr, _name, genitive = line.split(",")

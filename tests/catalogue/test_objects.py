@@ -1,4 +1,4 @@
-"""The page's object search and apparent places (alpaca_zwo/web/objects.py, issue 25 item 1, issue 33 item 3,
+"""The page's object search and apparent places (alpaca_zwo/catalogue/objects.py, issue 25 item 1, issue 33 item 3,
 issue 30's southern showpieces).
 
 Search: what a person types finds the object they mean, best first, and says when it cannot be sure
@@ -21,8 +21,8 @@ from zoneinfo import ZoneInfo
 import pytest
 from skyfield.api import Loader, Star, wgs84
 
-from alpaca_zwo.web import deepsky, objects
-from alpaca_zwo.web.objects import (
+from alpaca_zwo.catalogue import deepsky, objects
+from alpaca_zwo.catalogue.objects import (
     LUNAR,
     SIDEREAL,
     SOLAR,
@@ -235,7 +235,7 @@ def test_every_caldwell_number_is_found() -> None:
 
 
 def test_every_added_common_name_names_an_openngc_object() -> None:
-    table = resources.files("alpaca_zwo.web").joinpath("dso_names.csv").read_text(encoding="utf-8")
+    table = resources.files("alpaca_zwo.catalogue").joinpath("dso_names.csv").read_text(encoding="utf-8")
     rows = [line.split(",", 2) for line in table.splitlines() if line and not line.startswith(("#", "name,"))]
     assert len(rows) >= 30
     for name, target, source in rows:
@@ -246,7 +246,7 @@ def test_every_added_common_name_names_an_openngc_object() -> None:
 
 
 def test_the_constellation_table_has_the_88() -> None:
-    table = resources.files("alpaca_zwo.web").joinpath("constellations.csv").read_text(encoding="utf-8")
+    table = resources.files("alpaca_zwo.catalogue").joinpath("constellations.csv").read_text(encoding="utf-8")
     rows = [line.split(",") for line in table.splitlines() if line[:1].isupper() and not line.startswith("abbr,")]
     assert len(rows) == 88 and len({r[0] for r in rows}) == 88 and all(len(r) == 3 for r in rows)
     for abbr, genitive in (("Cen", "Centauri"), ("CMa", "Canis Majoris"), ("TrA", "Trianguli Australis")):

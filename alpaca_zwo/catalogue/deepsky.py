@@ -20,7 +20,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from ..facade import angular_separation
+from ..sky import angular_separation
+from . import data_text
 from .naming import SkyObject, fold, name_key, words_match
 
 KINDS = {
@@ -128,7 +129,7 @@ def pretty(name: str) -> str:
 def _extra_names() -> dict[str, tuple[str, ...]]:
     """``dso_names.csv``: OpenNGC name -> the common names it lacks."""
     extra: dict[str, list[str]] = {}
-    table = resources.files(__package__).joinpath("dso_names.csv").read_text(encoding="utf-8")
+    table = data_text("dso_names.csv")
     for line in table.splitlines()[1:]:
         if line and not line.startswith(("#", "name,")):
             common, target, _source = line.split(",", 2)

@@ -28,7 +28,7 @@ class CoordinateError(ValueError):
 
 
 @dataclass(frozen=True)
-class Reading:
+class CoordinateReading:
     """One meaning of typed coordinates: J2000 RA (hours) and Dec (degrees), and how the RA was read."""
 
     ra_hours: float
@@ -53,7 +53,7 @@ class _Angle:
     sexagesimal_ok: bool  # minutes and seconds under 60
 
 
-def parse(text: str) -> list[Reading] | None:
+def parse(text: str) -> list[CoordinateReading] | None:
     """The readings of ``text`` as coordinates (one, or two when ambiguous); None when it is not coordinates.
     Raises :class:`CoordinateError` for coordinates out of range or whose RA and Dec cannot be told apart."""
     tokens = _tokens(text)
@@ -128,7 +128,7 @@ def _preferred(splits: list[tuple[_Angle, _Angle]], tokens: list[_Token]) -> lis
                           "(+ or -) or units, e.g. 5h35m17s -5°23'28\"")
 
 
-def _readings(text: str, ra: _Angle, dec_deg: float) -> list[Reading]:
+def _readings(text: str, ra: _Angle, dec_deg: float) -> list[CoordinateReading]:
     if ra.unit == "h" or (not ra.unit and ra.parts > 1):
         hours = [("hours", ra.value)]
     elif ra.unit == "d" or ra.value > 24.0:
@@ -139,4 +139,4 @@ def _readings(text: str, ra: _Angle, dec_deg: float) -> list[Reading]:
         hours = [("hours", ra.value), ("degrees", ra.value / 15.0)]
     if any(not 0.0 <= h < 24.0 for _, h in hours):
         raise CoordinateError(f"{text.strip()!r}: RA must be 0..24 h (0..360°)")
-    return [Reading(h, dec_deg, unit, ambiguous=len(hours) > 1) for unit, h in hours]
+    return [CoordinateReading(h, dec_deg, unit, ambiguous=len(hours) > 1) for unit, h in hours]
