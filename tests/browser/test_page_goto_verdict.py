@@ -17,7 +17,7 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.support.ui import WebDriverWait
 
-from alpaca_zwo.web import objects
+from alpaca_zwo.catalogue import objects
 from tests.browser.test_page_handset import TIMEOUT, Scene, button, shown, tap
 from tests.conftest import ServerFactory
 from tests.web.test_setup_goto import LATITUDE, _longitude_putting

@@ -24,10 +24,10 @@ from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.remote.webdriver import WebDriver
 from selenium.webdriver.support.ui import Select, WebDriverWait
 
+from alpaca_zwo.catalogue import objects
 from alpaca_zwo.config.settings import EmulatorSettings, SiteSettings
 from alpaca_zwo.emulator import MountModel
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.web import objects
 from tests.browser.pixels import rgb_pixels
 from tests.conftest import ServerFactory, make_settings
 from tests.support import wait_until
