@@ -11,9 +11,12 @@ mount with Alpaca clients:
 * Motion and settings go through the Telescope's public methods, so horizon and altitude limits,
   the parked state, the MoveAxis watchdog and abort-from-anyone apply exactly as for Alpaca.
 * Commands that change the mount for every program (``Effect.GUARDED`` in the command table) are
-  refused, with the refusal the mount itself gives, unless ``zwo_port.allow_dangerous`` lists them;
-  then they are relayed to the mount as they are (``RawCommands.relay``), except the meridian
-  setting, which goes through the Telescope because DestinationSideOfPier depends on it.
+  refused, with the refusal the mount itself gives, unless ``zwo_port.allow_dangerous`` lists them.
+  Allowed, the stored settings (meridian, altitude limits, heavy duty, buzzer) go through their one
+  owner, ``StoredSettings.apply``, as the ``zwo:*`` Actions and the page do (one range check, the
+  meridian mirrored in the configuration, in force for DestinationSideOfPier); the rest (mode, home and
+  park positions, alignment, sidereal time, Bluetooth) are relayed to the mount as they are
+  (``RawCommands.relay``).
 
 Telescope refusals become the mount's own error codes (field notes §4.1): a target under the
 configured horizon profile or below altitude 0 is ``e5#``, under ``min_altitude_deg`` ``e6#``; a
@@ -40,7 +43,6 @@ from dataclasses import dataclass, field
 from datetime import date, datetime, time, timedelta, timezone
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from .. import sky
 from .._exceptions import (
     AlpacaError,
     AlpacaZwoError,
@@ -52,8 +54,8 @@ from .._exceptions import (
     SafetyRefusal,
 )
 from ..clients import ClientKey
-from ..config.settings import horizon_altitude_at
 from ..sky import SIDEREAL_DEG_S, PierSide
+from ..telescope import pointing
 from ..zwo.dispatch import NoReply, Refusal, Verbatim
 from ..zwo.protocol import BY_CODE, CommandMatch, Effect, TrackingState
 from ..zwo.wire_values import (
@@ -79,12 +81,20 @@ DRIVE_RATE = {TrackRate.SIDEREAL: 0, TrackRate.LUNAR: 1, TrackRate.SOLAR: 2}
 GUIDE_DIRECTION = {Direction.NORTH: 0, Direction.SOUTH: 1, Direction.EAST: 2, Direction.WEST: 3}
 #: :M?# -> (axis, sign): axis 0 is RA (+ east), axis 1 is Dec (+ north), as Telescope.move_axis takes them.
 MOVES = {Direction.EAST: (0, 1.0), Direction.WEST: (0, -1.0), Direction.NORTH: (1, 1.0), Direction.SOUTH: (1, -1.0)}
+#: The limits (``pointing.Blocked.limit``) the mount refuses a GOTO under with ``e5#``: its horizon, and
+#: the horizon profile the server adds to it; every other limit is an altitude limit, ``e6#``.
+HORIZON_LIMITS = frozenset({pointing.HORIZON, pointing.MOUNT_HORIZON})
 #: A clock or site setter within the wire's resolution of what the server has changes nothing, so a
 #: program pushing the same clock (whole seconds) never truncates the server's.
 TIME_TOLERANCE_S = 1.5
 SITE_TOLERANCE_DEG = 1.5 / 3600.0
 #: Commands real firmware does not have (:STR#): no reply, as for any unknown command.
 _UNKNOWN = Verbatim(None)
+#: The guarded setters of a setting ``StoredSettings`` owns: once allowed, they reach the backend's
+#: setters below (and so that owner), never the raw relay.
+STORED_SETTING_CODES = frozenset({"STa", "SLE", "SLD", "SLH", "SLL", "SRl", "SBu"})
+#: ``:SRl#``'s two top speeds, by the heavy-duty switch they mean.
+HEAVY_DUTY_BY_SPEED = {720: True, 1440: False}
 
 
 @dataclass
@@ -147,7 +157,7 @@ class TelescopeBackend:
             allowed = self.telescope.settings.zwo_port.allow_dangerous
             if command.code not in allowed and "all" not in allowed:
                 self._refuse_guarded(command.code)
-            if command.code != "STa":
+            if command.code not in STORED_SETTING_CODES:
                 return Verbatim(self.telescope.raw_commands.relay(f":{command.code}{match.argument}#") or None)
         return None
 
@@ -288,12 +298,10 @@ class TelescopeBackend:
         return False  # real firmware answers :SMeq#/:SMMC# with e2# (field notes §6 row 14)
 
     def _limit_code(self, ra: float, dec: float) -> int:
-        """5 under the horizon (altitude 0 or the configured profile), 6 under the altitude limit."""
-        t = self.telescope
-        ha = sky.hour_angle(t.clock.sidereal_time(), ra)
-        altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, t.capabilities.site_latitude())
-        profile_only = dataclasses.replace(t.settings.limits, min_altitude_deg=-90.0)
-        if altitude < 0.0 or altitude < horizon_altitude_at(profile_only, azimuth):
+        """The mount's code for the limit the Telescope's one GoTo check names (``Telescope.goto_limit``):
+        5 under a horizon (the configured profile, or altitude 0), 6 under or over an altitude limit."""
+        blocked = self.telescope.goto_limit(ra, dec)
+        if blocked is not None and (blocked.limit in HORIZON_LIMITS or blocked.altitude < 0.0):
             return 5
         return 6
 
@@ -431,38 +439,46 @@ class TelescopeBackend:
         meridian: MeridianSettings = self._stored("meridian")
         return meridian
 
-    def set_meridian(self, settings: MeridianSettings) -> bool:
-        """Through the stored settings' owner: checked, saved in the configuration, written, and in force
-        for DestinationSideOfPier; refused, out of range, not saved or the link failing: the mount's 0."""
+    def _store(self, name: str, value: object) -> bool:
+        """An allowed setter (``intercept`` refused it otherwise) through the stored settings' one owner:
+        checked by its one rule, written, and for the meridian saved in the configuration and in force for
+        DestinationSideOfPier. Refused by that rule or the mount, not saved, or the link failing: False,
+        the mount's ``0``."""
         try:
-            self.telescope.stored_settings.apply({"meridian": settings})
-        except AlpacaZwoError:
+            self.telescope.stored_settings.apply({name: value})
+        except AlpacaZwoError as exc:
+            log.info("ZWO port: %s not stored: %s", name, exc)
             return False
         return True
+
+    def set_meridian(self, settings: MeridianSettings) -> bool:
+        return self._store("meridian", settings)
 
     def limits_enabled(self) -> bool:
         return bool(self._stored("limits_enabled"))
 
     def set_limits_enabled(self, on: bool) -> bool:
-        self._refuse_guarded("SLE" if on else "SLD")
+        return self._store("limits_enabled", on)
 
     def upper_limit(self) -> int:
         return int(self._stored("upper_limit"))
 
     def set_upper_limit(self, degrees: int) -> bool:
-        self._refuse_guarded("SLH")
+        return self._store("upper_limit", degrees)
 
     def lower_limit(self) -> int:
         return int(self._stored("lower_limit"))
 
     def set_lower_limit(self, degrees: int) -> bool:
-        self._refuse_guarded("SLL")
+        return self._store("lower_limit", degrees)
 
     def max_speed(self) -> int:
         return 720 if self._stored("heavy_duty") else 1440
 
     def set_max_speed(self, multiple: int) -> bool:
-        self._refuse_guarded("SRl")
+        """``:SRl#`` takes only the two top speeds, as the mount: 720 is heavy duty, 1440 not."""
+        heavy = HEAVY_DUTY_BY_SPEED.get(multiple)
+        return heavy is not None and self._store("heavy_duty", heavy)
 
     def set_mode(self, mode: MountMode) -> None:
         self._refuse_guarded("AP" if mode is MountMode.EQUATORIAL else "AA")
@@ -471,7 +487,7 @@ class TelescopeBackend:
         return int(self._stored("buzzer"))
 
     def set_buzzer(self, level: int) -> None:
-        self._refuse_guarded("SBu")
+        self._store("buzzer", level)  # :SBu# answers nothing either way
 
     # -- identity -----------------------------------------------------------------------------------
 

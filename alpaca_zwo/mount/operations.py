@@ -123,7 +123,9 @@ class Mount:
         #: sum of its syncs since the mount last forgot them. The axes point at the mount's reading
         #: minus it, so the mount chooses GOTO sides and stops at its meridian limit by that hour angle.
         self._alignment = (0.0, 0.0)
-        #: The meridian setting last written or read: a GOTO's side depends on it (sky.goto_pier_side).
+        #: The meridian setting in force on the mount, as last written or read, a pier flip's temporary
+        #: limit included: the side a GOTO lands on depends on it (sky.goto_pier_side). Not the user's
+        #: setting, which a flip restores: that one's owner is telescope/stored_settings.py.
         self._meridian: MeridianSettings | None = None
         #: What the mount's pier letters and N/S commands mean (mount/pier.py); guarded by _pier_lock.
         self._pier_lock = threading.Lock()

@@ -119,11 +119,46 @@ def test_a_guarded_command_gets_its_rows_refusal_until_the_owner_allows_it(rig: 
     assert rig.model.flash.persist.upper_limit == 90
     assert asked(rig, "SLH") == asked(rig, "SBu") == 0
     rig.allow("SLH")
-    assert dispatch.answer(backend, "SLH80") == "1"  # relayed to the mount as it is
+    assert dispatch.answer(backend, "SLH80") == "1"  # through the stored settings' owner, to the mount
     assert rig.model.flash.persist.upper_limit == 80
-    assert dispatch.answer(backend, "GLH") == "80#", "the relayed setter marked the cached settings stale"
+    assert dispatch.answer(backend, "GLH") == "80#", "the setter marked the cached settings stale"
     with pytest.raises(Refusal):
         dispatch.answer(backend, "SBu0")  # still refused: not listed
+
+
+def test_allowed_stored_settings_go_through_their_one_owner(rig: Rig) -> None:
+    """Allowed, the port's setters of the mount's stored settings take ``StoredSettings.apply``'s path, as the
+    Actions and the page do: a value its one rule refuses is answered as the mount answers it (``0``) and never
+    reaches the mount; an accepted one is written, and every reader sees it."""
+    backend = rig.backend()
+    rig.allow("SLE", "SLD", "SLH", "SLL", "SRl", "SBu", "STa")
+    since = len(rig.heard)
+    for body in ("SLH55", "SLH91", "SLL31", "SRl999", "SRl12", "STa01+16"):
+        assert dispatch.answer(backend, body) == "0", body
+    assert dispatch.answer(backend, "SBu3") is None  # malformed (one digit 0-2): the row's silence
+    assert rig.heard[since:] == [], "the owner's rule refused them before the mount was asked"
+    assert dispatch.answer(backend, "SLH75") == "1"
+    assert dispatch.answer(backend, "SLL20") == "1"
+    assert dispatch.answer(backend, "SLE") == "1"
+    assert dispatch.answer(backend, "SRl720") == "1"
+    assert dispatch.answer(backend, "SBu2") is None  # :SBu# answers nothing
+    assert dispatch.answer(backend, "STa01+05") == "1"
+    flash = rig.model.flash
+    assert (flash.limits_enabled(), flash.altitude_limits(), flash.max_speed(), flash.buzzer()) == (True, (20, 75),
+                                                                                                     720, 2)
+    writes = [body for body in rig.heard[since:] if body[:3] in ("SLH", "SLL", "SLE", "SRl", "SBu", "STa")]
+    assert writes == ["SLH75", "SLL20", "SLE", "SRl720", "SBu2", "STa01+05"]
+    stored = rig.telescope.stored_settings
+    assert stored.meridian.limit_degrees == 5 and stored.meridian.track_after, "in force for DestinationSideOfPier"
+    assert rig.store.settings.limits.meridian_limit_deg == 5, "the meridian mirrored in the configuration"
+    current = stored.current()
+    assert (current.limits_enabled, current.upper_limit, current.lower_limit, current.heavy_duty,
+            current.buzzer) == (True, 75, 20, True, 2)
+    for body, reply in (("GLC", "1#"), ("GLH", "75#"), ("GLL", "20#"), ("GRl", "720#"), ("GBu", "2#")):
+        assert dispatch.answer(backend, body) == reply, body
+    assert dispatch.answer(backend, "SLD") == "1"
+    assert dispatch.answer(backend, "SRl1440") == "1"
+    assert not flash.limits_enabled() and flash.max_speed() == 1440
 
 
 def test_tracking_state_is_the_tables_reply_of_the_servers_state(rig: Rig) -> None:
@@ -148,6 +183,41 @@ def test_a_goto_the_telescope_refuses_answers_the_mounts_error_code(rig: Rig) ->
     with pytest.raises(Refusal) as refused:
         dispatch.answer(backend, "MS")
     assert refused.value.reply == "e5#"
+    assert asked(rig, "MS") == 0
+
+
+def _goto_reply(rig: Rig, backend: TelescopeBackend, altitude: float) -> str | None:
+    """The port's reply to a GOTO to the meridian at ``altitude`` (on the side of the pole's opposite)."""
+    latitude = rig.telescope.capabilities.site_latitude()
+    dec = latitude - math.copysign(90.0 - altitude, latitude)
+    ra = rig.telescope.clock.sidereal_time()
+    assert dispatch.answer(backend, f"Sr{format_hms(ra)}") == "1"
+    assert dispatch.answer(backend, f"Sd{format_dms(dec)}") == "1"
+    try:
+        return dispatch.answer(backend, "MS")
+    except Refusal as refused:
+        return refused.reply
+
+
+def test_the_goto_refusal_code_is_the_one_limit_checks_verdict(rig: Rig) -> None:
+    """``e5#`` for a horizon (the mount's at 0°, the configured profile), ``e6#`` for an altitude limit (the
+    server's minimum, the mount's stored lower and upper ones): the code is read off the verdict
+    ``Telescope.goto_limit`` gives, the same the page shows, and no refused GOTO reaches the mount."""
+    backend = rig.backend()
+    stored = rig.telescope.stored_settings
+    stored.apply({"lower_limit": 25, "upper_limit": 70, "limits_enabled": True})
+    stored.read()  # what the server knows of the mount's limits, as the poller's next read would
+    assert _goto_reply(rig, backend, -20.0) == "e5#"  # under the mount's horizon
+    assert _goto_reply(rig, backend, 15.0) == "e6#"  # under the mount's lower limit
+    assert _goto_reply(rig, backend, 80.0) == "e6#"  # over its upper limit
+    stored.apply({"limits_enabled": False})
+    stored.read()
+    profile = ((0.0, 30.0), (359.0, 30.0))
+    rig.store.update(lambda s: dataclasses.replace(s, limits=dataclasses.replace(s.limits, horizon=profile)))
+    assert _goto_reply(rig, backend, 20.0) == "e5#"  # under the configured horizon profile
+    rig.store.update(lambda s: dataclasses.replace(s, limits=dataclasses.replace(s.limits, horizon=(),
+                                                                                  min_altitude_deg=40.0)))
+    assert _goto_reply(rig, backend, 35.0) == "e6#"  # under the server's minimum altitude
     assert asked(rig, "MS") == 0
 
 
