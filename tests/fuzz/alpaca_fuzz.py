@@ -407,7 +407,8 @@ def check_consistent(keeper: Keeper, base_url: str, site: tuple[float, float, fl
     assert reply["ErrorNumber"] == 0, reply
     assert keeper._put("findhome")["ErrorNumber"] == 0
     _wait_idle(keeper)
-    assert keeper.value("athome") is True and keeper.value("declination") == 90.0
+    home = keeper.check_state()
+    assert home["AtHome"] is True and home["Declination"] == 90.0, home
     reply = keeper._put("tracking", Tracking="true")
     assert reply["ErrorNumber"] == 0, reply
     ra, dec = (keeper.value("siderealtime") + 2.0) % 24.0, 40.0  # HA -2 h: well above the horizon
