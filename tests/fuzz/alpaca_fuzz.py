@@ -408,7 +408,9 @@ def check_consistent(keeper: Keeper, base_url: str, site: tuple[float, float, fl
     assert keeper._put("findhome")["ErrorNumber"] == 0
     _wait_idle(keeper)
     home = keeper.check_state()
-    assert home["AtHome"] is True and home["Declination"] == 90.0, home
+    # At the pole, to within the sub-arcsecond remainder a fuzzed fine sync leaves in every reading (whether
+    # one is accepted depends on timing; CI once read 89.99996513°, 0.13″ off, with AtHome true).
+    assert home["AtHome"] is True and abs(home["Declination"] - 90.0) < 1.0 / 3600.0, home
     reply = keeper._put("tracking", Tracking="true")
     assert reply["ErrorNumber"] == 0, reply
     ra, dec = (keeper.value("siderealtime") + 2.0) % 24.0, 40.0  # HA -2 h: well above the horizon
