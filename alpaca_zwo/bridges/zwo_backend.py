@@ -90,9 +90,6 @@ TIME_TOLERANCE_S = 1.5
 SITE_TOLERANCE_DEG = 1.5 / 3600.0
 #: Commands real firmware does not have (:STR#): no reply, as for any unknown command.
 _UNKNOWN = Verbatim(None)
-#: The guarded setters of a setting ``StoredSettings`` owns: once allowed, they reach the backend's
-#: setters below (and so that owner), never the raw relay.
-STORED_SETTING_CODES = frozenset({"STa", "SLE", "SLD", "SLH", "SLL", "SRl", "SBu"})
 #: ``:SRl#``'s two top speeds, by the heavy-duty switch they mean.
 HEAVY_DUTY_BY_SPEED = {720: True, 1440: False}
 
@@ -157,7 +154,7 @@ class TelescopeBackend:
             allowed = self.telescope.settings.zwo_port.allow_dangerous
             if command.code not in allowed and "all" not in allowed:
                 self._refuse_guarded(command.code)
-            if command.code not in STORED_SETTING_CODES:
+            if not command.has(Effect.STORED):  # a stored setting goes to its owner, via the setters below
                 return Verbatim(self.telescope.raw_commands.relay(f":{command.code}{match.argument}#") or None)
         return None
 

@@ -407,6 +407,9 @@ class Effect(Flag):
     #: Changes the mount for every program (mode, alignment, stored settings, Bluetooth, clock): refused
     #: on the shared ZWO port unless ``zwo_port.allow_dangerous`` lists it.
     GUARDED = auto()
+    #: Changes a setting the server owns and restores (``telescope.StoredSettings``: meridian, altitude
+    #: limits, heavy duty, buzzer): every door, the shared port included, writes it through that owner.
+    STORED = auto()
 
 
 @dataclass(frozen=True)
@@ -470,6 +473,8 @@ _KIND_REPLY: dict[ReplyKind, Callable[[Any], str | None]] = {
 
 _T, _C, _G, _N = ReplyKind.TEXT, ReplyKind.CHAR, ReplyKind.GOTO, ReplyKind.NONE
 _STATUS, _READINGS, _SETTING, _GUARDED = Effect.STATUS, Effect.READINGS, Effect.SETTING, Effect.GUARDED
+#: A stored setting the server owns: it changes the mount for every program, so it is guarded too.
+_STORED = Effect.SETTING | Effect.GUARDED | Effect.STORED
 _HMS_ARG = r" ?\d{1,2}:\d{1,2}(?::\d{1,2}(?:\.\d)?|\.\d)"
 _DMS_ARG = r"[+-]?\d{1,3}[" + re.escape(DEGREE_MARKS) + r"]\d{1,2}(?:[:']\d{1,2})?"
 _SPEED_ARG = r"\d{1,4}(?:\.\d{1,2})?"
@@ -785,25 +790,25 @@ COMMANDS: tuple[Command, ...] = (
             asks=lambda b, _: b.park_status()),
     # Meridian and limits
     Command("STa", _C, "meridian settings f t s nn", r"[01][01][+-]\d{2}", source="field", argument=MERIDIAN,
-            effects=_SETTING | _GUARDED, asks=lambda b, settings: b.set_meridian(settings)),
+            effects=_STORED, asks=lambda b, settings: b.set_meridian(settings)),
     Command("GTa", _T, "get meridian settings", parse=parse_meridian, source="field", reply=_query(format_meridian),
             asks=lambda b, _: b.meridian()),
-    Command("SLE", _C, "altitude limits on", source="field", effects=_SETTING | _GUARDED,
+    Command("SLE", _C, "altitude limits on", source="field", effects=_STORED,
             asks=lambda b, _: b.set_limits_enabled(True)),
-    Command("SLD", _C, "altitude limits off", source="field", effects=_SETTING | _GUARDED,
+    Command("SLD", _C, "altitude limits off", source="field", effects=_STORED,
             asks=lambda b, _: b.set_limits_enabled(False)),
     Command("GLC", _T, "altitude limits on?", parse=_flag01, source="field", reply=_reply_flag,
             asks=lambda b, _: b.limits_enabled()),
     Command("SLH", _C, "upper altitude limit 60-90", r"[+-]?\d{1,2}", source="field", argument=LIMIT,
-            effects=_SETTING | _GUARDED, asks=lambda b, degrees: b.set_upper_limit(degrees)),
+            effects=_STORED, asks=lambda b, degrees: b.set_upper_limit(degrees)),
     Command("GLH", _T, "get upper altitude limit", parse=_int_text, source="field", reply=_query(str),
             asks=lambda b, _: b.upper_limit()),
     Command("SLL", _C, "lower altitude limit 0-30, unsigned two digits", r"[+-]?\d{1,2}", source="field",
-            argument=LIMIT, effects=_SETTING | _GUARDED, asks=lambda b, degrees: b.set_lower_limit(degrees)),
+            argument=LIMIT, effects=_STORED, asks=lambda b, degrees: b.set_lower_limit(degrees)),
     Command("GLL", _T, "get lower altitude limit", parse=_int_text, source="field", reply=_query(str),
             asks=lambda b, _: b.lower_limit()),
     Command("SRl", _C, "heavy-duty mode: top speed 720 or 1440", r"\d{3,4}", source="field", argument=NUMBER,
-            effects=_SETTING | _GUARDED, asks=lambda b, multiple: b.set_max_speed(multiple)),
+            effects=_STORED, asks=lambda b, multiple: b.set_max_speed(multiple)),
     Command("GRl", _T, "get heavy-duty top speed", parse=_int_text, source="field", reply=_query(str),
             asks=lambda b, _: b.max_speed()),
     # Mode, buzzer, identity
@@ -811,7 +816,7 @@ COMMANDS: tuple[Command, ...] = (
             effects=_STATUS | _SETTING | _GUARDED, asks=lambda b, _: b.set_mode(MountMode.EQUATORIAL)),
     Command("AA", _N, "switch to alt-az mode (after restart)", source="field", effects=_STATUS | _SETTING | _GUARDED,
             asks=lambda b, _: b.set_mode(MountMode.ALTAZ)),
-    Command("SBu", _N, "buzzer 0 mute, 1 low, 2 loud", r"[012]", argument=DIGIT, effects=_SETTING | _GUARDED,
+    Command("SBu", _N, "buzzer 0 mute, 1 low, 2 loud", r"[012]", argument=DIGIT, effects=_STORED,
             asks=lambda b, level: b.set_buzzer(level)),
     Command("GBu", _T, "get buzzer", parse=_int_text, reply=_query(str), asks=lambda b, _: b.buzzer()),
     Command("GU", _T, "get status flags", parse=parse_status, reply=_query(format_status),

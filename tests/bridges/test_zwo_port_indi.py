@@ -171,8 +171,11 @@ def test_indi_goto_below_the_configured_horizon_is_refused(indi: IndiServer, alp
     # On the meridian over the horizon under the celestial equator, 10° too low.
     low = (_east(alpaca, 0.0), round(alpaca.SiteLatitude - site.pole * (90.0 - (HORIZON_DEG - 10.0)), 3))
     indi.set("ON_COORD_SET.TRACK=On")
-    indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={low[0]};{low[1]}")
-    wait_until(lambda: indi.coords()[2] == "Alert", 20, "INDI to report the refusal")
+    # INDI shows the refusal as Alert until its next poll (~1 s): watch the updates, not the state now.
+    with indi.watch() as watcher:
+        indi.set(f"EQUATORIAL_EOD_COORD.RA;DEC={low[0]};{low[1]}")
+        wait_until(lambda: "Alert" in watcher.states("EQUATORIAL_EOD_COORD"), 20, "INDI to report the refusal")
+        assert "Busy" not in watcher.states("EQUATORIAL_EOD_COORD"), "INDI took the refused GOTO as under way"
     refusal = server.zwo_port.status()["last_refusal"]
     assert refusal["command"] == ":MS#" and "horizon" in refusal["reason"]
     assert not alpaca.Slewing

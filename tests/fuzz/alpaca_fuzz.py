@@ -385,13 +385,14 @@ def _wait_idle(keeper: Keeper, timeout: float = 60.0) -> None:
     wait_until(lambda: not keeper.value("slewing"), timeout, "a motion to end", interval=0.02)
 
 
-def check_consistent(keeper: Keeper, base_url: str, site: tuple[float, float, float]) -> dict[str, Any]:
+def check_consistent(live: LiveServer) -> dict[str, Any]:
     """After fuzzing: the server still serves, the state hangs together, and a real session still works.
 
     The fuzzing left the site, clock and position wherever the last cases put them, so the session
     first restores what a client would set on connect (site, UTC time), homes the mount, then
     tracks and GOTOs to a target, checking Slewing, arrival and the read-back position.
     """
+    keeper, site = live.keeper, live.site
     keeper.settle()
     state = keeper.check_state()
     assert state["Slewing"] is False and state["IsPulseGuiding"] is False and state["AtPark"] is False
@@ -408,9 +409,10 @@ def check_consistent(keeper: Keeper, base_url: str, site: tuple[float, float, fl
     assert keeper._put("findhome")["ErrorNumber"] == 0
     _wait_idle(keeper)
     home = keeper.check_state()
-    # At the pole, to within the sub-arcsecond remainder a fuzzed fine sync leaves in every reading (whether
-    # one is accepted depends on timing; CI once read 89.99996513°, 0.13″ off, with AtHome true).
-    assert home["AtHome"] is True and abs(home["Declination"] - 90.0) < 1.0 / 3600.0, home
+    # At the pole plus the sub-arcsecond remainder a fuzzed fine sync leaves in every reading (whether one
+    # is accepted depends on timing; CI once read 89.99996513°, 0.13″ off, with AtHome true).
+    pole = live.server.telescopes[0].mount.sync_remainder.to_sky(0.0, 90.0)[1]
+    assert home["AtHome"] is True and abs(home["Declination"] - pole) < 1e-6, (pole, home)
     reply = keeper._put("tracking", Tracking="true")
     assert reply["ErrorNumber"] == 0, reply
     ra, dec = (keeper.value("siderealtime") + 2.0) % 24.0, 40.0  # HA -2 h: well above the horizon
@@ -423,7 +425,7 @@ def check_consistent(keeper: Keeper, base_url: str, site: tuple[float, float, fl
     assert abs(here["Declination"] - dec) < 5.0 / 3600.0, (here, dec)
     assert here["Tracking"] is True and here["SideOfPier"] == 1 and here["AtHome"] is False
     for path in ("/management/apiversions", "/management/v1/description", "/management/v1/configureddevices"):
-        assert requests.get(base_url + path, timeout=10).status_code == 200, path
+        assert requests.get(live.base_url + path, timeout=10).status_code == 200, path
     return here
 
 

@@ -91,7 +91,7 @@ def run(target: int, examples: int, seed: int, config_dir: Path) -> tuple[Stats,
             print(f"round {round_number}: {stats.requests} requests, {sum(stats.problems.values())} problems, "
                   f"{time.monotonic() - started:.0f} s", file=sys.stderr, flush=True)
         try:
-            final = {"consistent": True, "state": check_consistent(live.keeper, live.base_url, live.site)}
+            final = {"consistent": True, "state": check_consistent(live)}
         except Exception as exc:  # the report must say what broke, not just that something did
             final = {"consistent": False, "error": "".join(traceback.format_exception_only(exc)).strip()}
     finally:

@@ -88,7 +88,7 @@ def test_management_api(case: Case, live: LiveServer) -> None:
 
 def test_server_still_serves_and_state_is_consistent(live: LiveServer) -> None:
     """Runs after the fuzzing above (file order): everything still answers and hangs together."""
-    check_consistent(live.keeper, live.base_url, live.site)
+    check_consistent(live)
     assert STATS.statuses.get(500, 0) == 0
     if STATS.requests:  # the fuzz tests ran in this session (not deselected)
         assert STATS.kinds["telescope0"] and STATS.kinds["absent-device"] and STATS.kinds["negative-path"]

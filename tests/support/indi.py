@@ -1,6 +1,12 @@
 """The one INDI driver: ``indiserver`` running ``indi_lx200am5`` (Debian's indi-bin), driven with
 indi_getprop / indi_setprop, pointed at any TCP port that speaks the mount's protocol (the emulator,
-or alpaca-zwo's shared ZWO port)."""
+or alpaca-zwo's shared ZWO port).
+
+``indi_getprop`` reads a property's state *now*. Some states are momentary: a refused GOTO sets
+``EQUATORIAL_EOD_COORD`` to Alert, and the driver's next once-a-second poll sets it back to Ok or
+Idle, so a test polling with a subprocess under load can miss it. ``IndiServer.watch`` records
+every update the driver sends instead, as an INDI client does.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +14,12 @@ import os
 import signal
 import socket
 import subprocess
+import threading
+import time
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator
+from contextlib import contextmanager, suppress
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
@@ -20,6 +32,79 @@ def free_port() -> int:
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         return int(sock.getsockname()[1])
+
+
+@dataclass(frozen=True)
+class Update:
+    """One vector the driver sent: ``defNumberVector``/``setNumberVector``/… with its state and message."""
+
+    kind: str
+    name: str
+    state: str
+    message: str
+    received: float  # time.monotonic()
+
+
+class PropertyWatcher:
+    """An INDI client on its own socket that records every property update of ``DEVICE``.
+
+    Updates arrive on the socket in the order the driver sent them, so a state the driver held for
+    a moment is recorded however busy the machine is.
+    """
+
+    def __init__(self, port: int) -> None:
+        self._sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+        self._sock.settimeout(None)
+        self._updates: list[Update] = []
+        self._lock = threading.Lock()
+        # A client that has asked for properties is sent every later update (INDI protocol 1.7).
+        self._sock.sendall(f'<getProperties version="1.7" device="{DEVICE}"/>'.encode())
+        self._thread = threading.Thread(target=self._read, name="indi-watch", daemon=True)
+        self._thread.start()
+
+    def _read(self) -> None:
+        parser = ET.XMLPullParser(events=("start", "end"))
+        parser.feed("<stream>")  # the INDI stream is a sequence of top-level elements: give them a root
+        depth = 0
+        while True:
+            try:
+                data = self._sock.recv(65536)
+            except OSError:
+                return
+            if not data:
+                return
+            parser.feed(data)
+            for event, element in parser.read_events():
+                if event == "start":
+                    depth += 1
+                    continue
+                depth -= 1
+                if depth != 1:  # a member (oneNumber, …) of a vector: kept inside its parent
+                    continue
+                if element.get("device") == DEVICE and element.get("name"):
+                    update = Update(element.tag, element.get("name", ""), element.get("state", ""),
+                                    element.get("message", ""), time.monotonic())
+                    with self._lock:
+                        self._updates.append(update)
+                element.clear()
+
+    def received_any(self) -> bool:
+        with self._lock:
+            return bool(self._updates)
+
+    def updates(self, name: str) -> list[Update]:
+        """Every update of property ``name`` received so far, oldest first."""
+        with self._lock:
+            return [update for update in self._updates if update.name == name]
+
+    def states(self, name: str) -> list[str]:
+        return [update.state for update in self.updates(name)]
+
+    def close(self) -> None:
+        with suppress(OSError):
+            self._sock.shutdown(socket.SHUT_RDWR)
+        self._sock.close()
+        self._thread.join(5)
 
 
 class IndiServer:
@@ -52,6 +137,17 @@ class IndiServer:
         values = self.get("EQUATORIAL_EOD_COORD.*", "EQUATORIAL_EOD_COORD._STATE")
         return (float(values["EQUATORIAL_EOD_COORD.RA"]), float(values["EQUATORIAL_EOD_COORD.DEC"]),
                 values["EQUATORIAL_EOD_COORD._STATE"])
+
+    @contextmanager
+    def watch(self) -> Iterator[PropertyWatcher]:
+        """Record every property update from now on (see ``PropertyWatcher``)."""
+        watcher = PropertyWatcher(self.port)
+        try:
+            # The driver's answer to getProperties: indiserver now sends this client every update.
+            wait_until(watcher.received_any, 20, "the INDI watcher's first property", interval=0.02)
+            yield watcher
+        finally:
+            watcher.close()
 
     def connect(self, port: int, host: str = "127.0.0.1") -> None:
         """Point the driver at ``host:port`` and wait until it has run its start-up queries."""
