@@ -124,22 +124,44 @@ class PositionEstimator:
         """Whether a motion the estimator carries (a guide pulse) is still running."""
         return any(end > now for _, end, _, _ in self.pending)
 
-    def observe(self, raw_ra: float, raw_dec: float, now: float) -> tuple[float, float]:
+    def observe(self, raw_ra: float, raw_dec: float, now: float, asked: float | None = None) -> tuple[float, float]:
+        """The best position given a reading that arrived at ``now``.
+
+        The mount took the reading at some instant between ``asked`` (just before the query was sent)
+        and ``now``; over WiFi, or on a loaded host, that can be a tenth of a second or more before
+        ``now``, and during a guide pulse the sky moves 1″ in that time. So a reading agrees with the
+        estimate if it does at *some* instant of that window, and one that disagrees corrects the
+        estimate as of the window's middle, keeping the motion since. A reading taken while the
+        estimate's rates changed (the window spans its anchor) cannot be placed against the change:
+        the next one judges.
+        """
         predicted = self.predict(now)
         if predicted is None:
             self.set_exact(raw_ra, raw_dec, now)
             return raw_ra, raw_dec
-        dra = abs((predicted[0] - raw_ra + 12.0) % 24.0 - 12.0)
-        ra_ok = dra <= self.ra_tolerance_h
-        dec_ok = abs(predicted[1] - raw_dec) <= self.dec_tolerance_deg
+        start = now if asked is None else min(asked, now)
+        if start < self.anchor_time:
+            return predicted
+        instants = [start, now] + [t for motion in self.pending for t in motion[:2] if start < t < now]
+        ra_off: list[float] = []
+        dec_off: list[float] = []
+        for instant in instants:
+            then = self.predict(instant)
+            assert then is not None
+            ra_off.append(_wrap12(then[0] - raw_ra))
+            dec_off.append(then[1] - raw_dec)
+        ra_ok = min(ra_off) <= self.ra_tolerance_h and max(ra_off) >= -self.ra_tolerance_h
+        dec_ok = min(dec_off) <= self.dec_tolerance_deg and max(dec_off) >= -self.dec_tolerance_deg
         if ra_ok and dec_ok:
             return predicted
+        middle = self.predict((start + now) / 2.0)
+        assert middle is not None
         # Re-anchor only the axis the reading contradicts, keeping motions still in flight (the rest
         # of a guide pulse): a Dec correction must not move RA, nor drop the rest of a pulse.
         self._rebase(now)
-        if not ra_ok:
-            self.anchor_ra = raw_ra
-        if not dec_ok:
-            self.anchor_dec = raw_dec
         assert self.anchor_ra is not None and self.anchor_dec is not None
+        if not ra_ok:
+            self.anchor_ra = (self.anchor_ra + _wrap12(raw_ra - middle[0])) % 24.0
+        if not dec_ok:
+            self.anchor_dec += raw_dec - middle[1]
         return self.anchor_ra % 24.0, self.anchor_dec

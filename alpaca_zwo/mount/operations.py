@@ -394,6 +394,7 @@ class Mount:
                 self._estimator.shift_ra(ra_shift_h)
         if self._init_generation != self.link.generation:
             return  # initialising: the poll that follows it publishes, with the state it completes
+        asked = self.monotonic()
         ra, dec = self._exec(protocol.query("GMEQ"))
         now = self.monotonic()
         with self._publish_lock:
@@ -404,7 +405,7 @@ class Mount:
                     self._estimator.invalidate()
                     best = (ra, dec)
                 else:
-                    best = self._estimator.observe(ra, dec, now)
+                    best = self._estimator.observe(ra, dec, now, asked)
             sky_ra, sky_dec = self._remainder.to_sky(*best)
             self._publish(ra=sky_ra, dec=sky_dec, raw_ra=ra, raw_dec=dec, position_time=now)
 
@@ -780,6 +781,7 @@ class Mount:
         one, so a stale reading never lands after a fresh command's effect.
         """
         epoch = self._epoch
+        asked = self.monotonic()  # the mount takes the reading between this and ``now`` (estimator.observe)
         ra, dec = self._exec(protocol.query("GMEQ"), Priority.POLL)
         now = self.monotonic()
         status = self._exec(protocol.query("GU"), Priority.POLL)
@@ -789,13 +791,14 @@ class Mount:
             if self._epoch != epoch:
                 self.refresh()
                 return self._state
-            published = self._publish_poll(ra, dec, now, status, tracking, pier)
+            published = self._publish_poll(ra, dec, (asked, now), status, tracking, pier)
         if self._turn_round:
             self._turn_dec_move_round()
         return published
 
-    def _publish_poll(self, ra: float, dec: float, now: float, status: MountStatus, tracking: TrackingState,
-                      pier: str) -> MountState:
+    def _publish_poll(self, ra: float, dec: float, window: tuple[float, float], status: MountStatus,
+                      tracking: TrackingState, pier: str) -> MountState:
+        asked, now = window
         state = self._state
         moving = bool(state.moving_axes) or status.slewing
         with self._estimator_lock:
@@ -811,7 +814,7 @@ class Mount:
                 drift = self._ra_drift(tracking)
                 if drift != self._estimator.ra_rate:
                     self._estimator.set_ra_rate(drift, now)
-                best = self._estimator.observe(ra, dec, now)
+                best = self._estimator.observe(ra, dec, now, asked)
         best = self._remainder.to_sky(*best)
         side = self._read_side(ra, dec, now, pier, moving, status)
         return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now, status=status,

@@ -12,6 +12,7 @@ for a mount that has no pier side.
 from __future__ import annotations
 
 import json
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -163,6 +164,41 @@ def test_pulse_guide_moves_the_sky_position_by_rate_times_duration(
               GuideDirections.guideEast: "e", GuideDirections.guideWest: "w"}[direction]
     assert ":Rv0.50#" in sent and f":M{letter}#" in sent and f":Q{letter}#" in sent
     assert rig.scope.Tracking is True
+
+
+def test_late_replies_during_a_pulse_do_not_shorten_it(server_factory: ServerFactory) -> None:
+    """ConformU reads Declination the moment IsPulseGuiding falls and allows 1″. Over WiFi (or on a loaded
+    host) a reading reaches the server a few tenths of a second after the mount took it, while a pulse
+    moves the sky 7.5″ a second: a reading judged at its arrival disagrees with the estimate and pulled
+    it back to where the mount *was* (CI read a 3 s pulse 1.2″ and 1.9″ short). Judged over the window
+    in which the mount took it, it agrees, and the pulse reads its full length."""
+    rig = _rig(server_factory, speed=4.0)
+    _tracking_on_a_star(rig)
+    faults = rig.model.faults
+    rate = rig.scope.GuideRateDeclination * 3600.0  # ″/s
+    pulsing = threading.Event()
+    done = threading.Event()
+
+    def stall_the_line() -> None:  # 300 ms WiFi stalls (1.2 s of mount time), back to back, while the pulse runs
+        pulsing.wait(10)
+        while not done.is_set():
+            faults.stall(300)
+            done.wait(0.35)
+
+    staller = threading.Thread(target=stall_the_line, daemon=True)
+    staller.start()
+    try:
+        dec_before = rig.scope.Declination
+        rig.scope.PulseGuide(GuideDirections.guideNorth, 3000)
+        pulsing.set()
+        wait_until(lambda: not rig.scope.IsPulseGuiding, 30, "the pulse to end", interval=0.02)
+        moved = (rig.scope.Declination - dec_before) * 3600.0
+    finally:
+        done.set()
+        staller.join(5)
+    assert moved == pytest.approx(rate * 3.0, abs=1.0), f"the pulse read {moved:.2f}″ for {rate * 3.0:.2f}″"
+    _wait_mount_seconds(rig, 1.0)  # and the server reads where the mount truly is
+    assert abs(rig.scope.Declination - rig.model.position()[1]) * 3600.0 < 1.5
 
 
 def test_a_pulse_in_the_opposite_direction_replaces_the_running_one(rig: Rig) -> None:

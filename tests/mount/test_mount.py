@@ -8,7 +8,6 @@ from datetime import datetime, timedelta, timezone
 import pytest
 
 from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
-from alpaca_zwo.mount.estimator import PositionEstimator
 from alpaca_zwo.mount.operations import Mount
 from alpaca_zwo.mount.state import MountState
 from alpaca_zwo.sky import SIDEREAL_DEG_S
@@ -142,42 +141,6 @@ def test_a_poll_cycle_costs_under_sixty_bytes(mount: Mount, emulator: EmulatorSe
 
 
 # --- the estimator, pure -----------------------------------------------------------------
-
-
-def test_estimator_refines_coarse_readings_but_never_contradicts_them() -> None:
-    est = PositionEstimator()
-    est.set_exact(10.123456, 20.5, now=0.0)
-    assert est.observe(10.123333, 20.5, now=1.0) == (10.123456, 20.5)  # within the 1 s / 1" resolution
-    far = est.observe(10.2, 20.5, now=2.0)  # the mount disagrees: believe the mount
-    assert far == (10.2, 20.5)
-
-
-def test_estimator_applies_pulses_and_drift() -> None:
-    est = PositionEstimator()
-    est.set_exact(1.0, 0.0, now=0.0)
-    est.add_motion(1.0, 2.0, 0.0, 0.001)
-    assert est.predict(1.5) == pytest.approx((1.0, 0.0005))
-    assert est.predict(5.0) == pytest.approx((1.0, 0.001))
-    est.set_ra_rate(1 / 3600, now=5.0)
-    assert est.predict(8.0)[0] == pytest.approx(1.0 + 3 / 3600)
-
-
-def test_estimator_keeps_only_running_pulses() -> None:
-    est = PositionEstimator()
-    est.set_exact(1.0, 0.0, now=0.0)
-    for i in range(1000):  # a night of 1 s pulses every 2 s
-        est.add_motion(2.0 * i, 2.0 * i + 1.0, 0.0, 1e-6)
-    assert len(est.pending) <= 1
-    assert est.predict(2001.0)[1] == pytest.approx(1000 * 1e-6)
-
-
-def test_estimator_wraps_ra() -> None:
-    est = PositionEstimator()
-    est.set_exact(23.99999, 0.0, now=0.0)
-    est.set_ra_rate(1 / 3600, now=0.0)
-    ra, _ = est.predict(10.0)
-    assert 0.0 <= ra < 0.01
-    assert est.observe(0.0025, 0.0, now=10.0)[0] == pytest.approx(ra)
 
 
 def test_host_clock_is_used_when_no_clock_given() -> None:
