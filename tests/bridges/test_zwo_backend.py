@@ -32,6 +32,7 @@ from alpaca_zwo.zwo.link import Link
 from alpaca_zwo.zwo.wire_values import format_dms, format_hms
 from tests.conftest import make_settings
 from tests.support import wait_until
+from tests.support.sites import NORTH, SITE_IDS, SITES, Site
 
 SPEED = 10.0  # emulated seconds per real second
 
@@ -53,7 +54,9 @@ class Rig:
 
 
 @pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
+def rig(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Rig]:
+    """The northern site, or the one a test passes (``parametrize("rig", SITES, indirect=True)``)."""
+    site: Site = getattr(request, "param", NORTH)
     model = MountModel(ScaledClock(SPEED))
     heard: list[str] = []
     with EmulatorServer(model, host="127.0.0.1", port=0, baud=0) as emulator:
@@ -64,7 +67,8 @@ def rig(tmp_path: Path) -> Iterator[Rig]:
             return answer(body)
 
         emulator.responder.handle = hearing  # type: ignore[method-assign]
-        store = SettingsStore(make_settings(zwo_port=ZwoPortSettings(enabled=True)), tmp_path / "config.toml")
+        store = SettingsStore(make_settings(zwo_port=ZwoPortSettings(enabled=True), site=site.settings()),
+                              tmp_path / "config.toml")
         link = Link(f"socket://127.0.0.1:{emulator.port}", timeout=1.0)
         mount = Mount(link, lambda: (store.settings.site.latitude, store.settings.site.longitude),
                       clock=model.clock.now, monotonic=model.clock.seconds, clock_rate=SPEED)
@@ -187,10 +191,15 @@ def test_a_goto_the_telescope_refuses_answers_the_mounts_error_code(rig: Rig) ->
 
 
 def _goto_reply(rig: Rig, backend: TelescopeBackend, altitude: float) -> str | None:
-    """The port's reply to a GOTO to the meridian at ``altitude`` (on the side of the pole's opposite)."""
+    """The port's reply to a GOTO to the meridian at ``altitude``: on the side away from the elevated pole,
+    or under the horizon, below that pole (on the equator the meridian has no other point under it)."""
     latitude = rig.telescope.capabilities.site_latitude()
-    dec = latitude - math.copysign(90.0 - altitude, latitude)
     ra = rig.telescope.clock.sidereal_time()
+    if altitude >= 0.0:
+        dec = latitude - math.copysign(90.0 - altitude, latitude)
+    else:  # lower culmination: altitude = |latitude| + |dec| - 90
+        ra = (ra + 12.0) % 24.0
+        dec = math.copysign(90.0 + altitude - abs(latitude), latitude)
     assert dispatch.answer(backend, f"Sr{format_hms(ra)}") == "1"
     assert dispatch.answer(backend, f"Sd{format_dms(dec)}") == "1"
     try:
@@ -199,11 +208,14 @@ def _goto_reply(rig: Rig, backend: TelescopeBackend, altitude: float) -> str | N
         return refused.reply
 
 
+@pytest.mark.parametrize("rig", SITES, ids=SITE_IDS, indirect=True)
 def test_the_goto_refusal_code_is_the_one_limit_checks_verdict(rig: Rig) -> None:
     """``e5#`` for a horizon (the mount's at 0°, the configured profile), ``e6#`` for an altitude limit (the
     server's minimum, the mount's stored lower and upper ones): the code is read off the verdict
-    ``Telescope.goto_limit`` gives, the same the page shows, and no refused GOTO reaches the mount."""
+    ``Telescope.goto_limit`` gives, the same the page shows, and no refused GOTO reaches the mount. North,
+    at Sydney and on the equator: the targets are on the meridian on the side away from the elevated pole."""
     backend = rig.backend()
+    assert rig.model.clock_site.latitude() == pytest.approx(rig.telescope.settings.site.latitude, abs=0.02)  # pushed
     stored = rig.telescope.stored_settings
     stored.apply({"lower_limit": 25, "upper_limit": 70, "limits_enabled": True})
     stored.read()  # what the server knows of the mount's limits, as the poller's next read would
