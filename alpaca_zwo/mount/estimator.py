@@ -132,8 +132,9 @@ class PositionEstimator:
         ``now``, and during a guide pulse the sky moves 1″ in that time. So a reading agrees with the
         estimate if it does at *some* instant of that window, and one that disagrees corrects the
         estimate as of the window's middle, keeping the motion since. A reading taken while the
-        estimate's rates changed (the window spans its anchor) cannot be placed against the change:
-        the next one judges.
+        estimate's rates changed (its anchor moved inside the window) cannot be placed against the
+        change: the next one judges. An anchor set at the reading's own arrival (the poll that brought
+        it booked the GOTO target or a tracking change) is judged there, at ``now``.
         """
         predicted = self.predict(now)
         if predicted is None:
@@ -141,7 +142,9 @@ class PositionEstimator:
             return raw_ra, raw_dec
         start = now if asked is None else min(asked, now)
         if start < self.anchor_time:
-            return predicted
+            if self.anchor_time < now:
+                return predicted
+            start = now
         instants = [start, now] + [t for motion in self.pending for t in motion[:2] if start < t < now]
         ra_off: list[float] = []
         dec_off: list[float] = []

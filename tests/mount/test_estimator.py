@@ -91,3 +91,14 @@ def test_a_reading_taken_across_a_change_of_rate_waits_for_the_next() -> None:
     assert est.observe(5.0, 10.0, now=2.1, asked=1.9)[1] == pytest.approx(expected)
     assert est.observe(5.0, 10.0, now=2.3, asked=2.2)[1] == pytest.approx(10.0)  # the mount disagrees: believed
 
+
+def test_an_anchor_set_at_the_readings_arrival_is_judged_there() -> None:
+    """The poll that brought a reading first books what it learnt (the GOTO target it landed on, a tracking
+    change) at the reading's arrival: that reading is judged at ``now``, against the new anchor, not skipped."""
+    est = PositionEstimator()
+    est.set_exact(5.0, 10.0, now=2.0)  # the target, booked by the poll whose reading arrived at 2.0
+    assert est.observe(5.0, 10.0 + 5 * ARCSEC, now=2.0, asked=1.8)[1] == pytest.approx(10.0 + 5 * ARCSEC)
+    near = PositionEstimator()
+    near.set_exact(5.0, 10.0, now=2.0)
+    assert near.observe(5.0, 10.0 + 1 * ARCSEC, now=2.0, asked=1.8)[1] == pytest.approx(10.0)  # agrees: kept
+

@@ -15,7 +15,6 @@ import signal
 import socket
 import subprocess
 import threading
-import time
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
@@ -36,13 +35,11 @@ def free_port() -> int:
 
 @dataclass(frozen=True)
 class Update:
-    """One vector the driver sent: ``defNumberVector``/``setNumberVector``/… with its state and message."""
+    """One vector the driver sent: ``defNumberVector``/``setNumberVector``/… with its state."""
 
     kind: str
     name: str
     state: str
-    message: str
-    received: float  # time.monotonic()
 
 
 class PropertyWatcher:
@@ -82,8 +79,7 @@ class PropertyWatcher:
                 if depth != 1:  # a member (oneNumber, …) of a vector: kept inside its parent
                     continue
                 if element.get("device") == DEVICE and element.get("name"):
-                    update = Update(element.tag, element.get("name", ""), element.get("state", ""),
-                                    element.get("message", ""), time.monotonic())
+                    update = Update(element.tag, element.get("name", ""), element.get("state", ""))
                     with self._lock:
                         self._updates.append(update)
                 element.clear()
