@@ -156,6 +156,8 @@ def _render_image(self: Any, tokens: Sequence[Token], idx: int, options: Any, en
     token = tokens[idx]
     alt = html.escape(self.renderInlineAsText(token.children or [], options, env))
     src = html.escape(str(token.attrGet("src") or ""))
+    if not src:  # not one of the guide's screenshots: its description alone
+        return f'<span class="shot-missing">{alt}</span>'
     return f'<span class="shot"><img src="{src}" alt="{alt}" loading="lazy"></span>'
 
 
