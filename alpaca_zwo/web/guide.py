@@ -38,7 +38,7 @@ _SCHEME = re.compile(r"[a-zA-Z][a-zA-Z0-9+.-]*:")
 def docs_dir() -> Path:
     """The guide's files: the installed ``alpaca_zwo.docs`` package, else ``docs/`` beside the source."""
     with contextlib.suppress(ModuleNotFoundError, TypeError, ValueError):
-        index = importlib.resources.files("alpaca_zwo.docs").joinpath("guide", "index.md")
+        index = importlib.resources.files("alpaca_zwo.docs").joinpath("guide").joinpath("index.md")
         if isinstance(index, Path) and index.is_file():
             return index.parent.parent.resolve()
     return (Path(__file__).resolve().parents[2] / "docs").resolve()
