@@ -6,11 +6,13 @@ sources at that moment (every file of static/ except the guide's own guide.css).
 when the page's sources now hash differently, and unrecorded when its PNG differs from the one recorded.
 
 Taking them: the browser tests write each view to /tmp/alpaca-zwo-<view>-<phone|desktop>.png (each
-entry's ``taken_by`` names the test); copy the ones the docs use into docs/screenshots/ under their names
-here, then record them:
+entry's ``taken_by`` names the test and the file). Run those tests, then copy and record:
 
-    python3 -m tools.screenshots record handset-progress-phone.png ...   (or: record --all)
-    python3 -m tools.screenshots check                                  (what tests/test_docs.py runs)
+    scripts/run-tests tests/browser/test_page_handset.py tests/browser/test_page_in_the_dark.py \\
+        tests/browser/test_page_skychart.py tests/browser/test_page_search.py tests/browser/test_page_first_contact.py
+    python3 -m tools.screenshots collect --all     (copies from /tmp and records; or name the screenshots)
+    python3 -m tools.screenshots record NAME...    (a screenshot put in docs/screenshots/ by hand)
+    python3 -m tools.screenshots check             (what tests/test_docs.py runs)
 """
 
 from __future__ import annotations
@@ -29,18 +31,36 @@ STATIC = ROOT / "static"
 #: static/ files that are not the setup page shown in the screenshots.
 NOT_THE_PAGE = {"guide.css"}
 COMMAND = "python3 -m tools.screenshots record"
-#: The browser test that writes each screenshot, and its file in /tmp (by the screenshot's name prefix).
-TAKEN_BY = {
-    "handset-": "tests/browser/test_page_handset.py (/tmp/alpaca-zwo-handset-<view>-<size>.png)",
-    "chart-card-": "tests/browser/test_page_in_the_dark.py (/tmp/alpaca-zwo-chart-card-<size>.png)",
-    "chart-night-": "tests/browser/test_page_skychart.py (/tmp/alpaca-zwo-chart-night-<size>-greenwich.png)",
-    "chart-": "tests/browser/test_page_skychart.py (/tmp/alpaca-zwo-chart-<view>-<size>.png)",
-    "night-top-": "tests/browser/test_page_in_the_dark.py (/tmp/alpaca-zwo-night-top-<size>.png)",
-    "stop-refused-": "tests/browser/test_page_in_the_dark.py (/tmp/alpaca-zwo-stop-refused-<size>.png)",
-    "search-": "tests/browser/test_page_search.py (/tmp/alpaca-zwo-search-<view>-<size>.png)",
-    "page-link-lost-": "tests/browser/test_page_first_contact.py (/tmp/alpaca-zwo-first-contact-link-lost-<size>.png)",
-    "page-location-": "tests/browser/test_page_first_contact.py (/tmp/alpaca-zwo-first-contact-location-<size>.png)",
+_HANDSET = "tests/browser/test_page_handset.py"
+_DARK = "tests/browser/test_page_in_the_dark.py"
+_CHART = "tests/browser/test_page_skychart.py"
+_SEARCH = "tests/browser/test_page_search.py"
+_FIRST = "tests/browser/test_page_first_contact.py"
+#: Each screenshot's browser test and the file it writes in /tmp, by the screenshot's name without its size.
+SOURCES = {
+    **{f"handset-{view}": (_HANDSET, f"handset-{view}-{{size}}")
+       for view in ("arrival", "progress", "search-list", "selection", "sun-confirm")},
+    "chart-card": (_DARK, "chart-card-{size}"),
+    "night-top": (_DARK, "night-top-{size}"),
+    "stop-refused": (_DARK, "stop-refused-{size}"),
+    "chart-day": (_CHART, "chart-day-{size}"),
+    "chart-south": (_CHART, "chart-south-{size}"),
+    "chart-night": (_CHART, "chart-night-{size}-{site}"),  # the phone's at a northern site, the desktop's southern
+    "search-ambiguous": (_SEARCH, "search-ambiguous-{size}"),
+    "search-times": (_SEARCH, "search-times-{size}"),
+    "page-link-lost": (_FIRST, "first-contact-link-lost-{size}"),
+    "page-location": (_FIRST, "first-contact-location-{size}"),
 }
+
+
+def source(name: str) -> tuple[str, Path] | None:
+    """The test that takes screenshot ``name`` (``chart-day-phone.png``) and where it writes it."""
+    stem, _, size = name.removesuffix(".png").rpartition("-")
+    if stem not in SOURCES:
+        return None
+    test, pattern = SOURCES[stem]
+    site = "north" if size == "phone" else "south"
+    return test, Path("/tmp") / f"alpaca-zwo-{pattern.format(size=size, site=site)}.png"
 
 
 def page_hash(files: dict[str, bytes]) -> str:
@@ -77,9 +97,8 @@ def problems() -> list[str]:
         elif entry["png_sha256"] != _sha(path):
             found.append(f"docs/screenshots/{path.name} changed since it was recorded: run {COMMAND} {path.name}")
         elif entry["page_sha256"] != now:
-            found.append(f"docs/screenshots/{path.name} shows an older page than static/ now: retake it "
-                         f"({entry.get('taken_by', 'tests/browser')} writes /tmp/alpaca-zwo-*.png), copy it "
-                         f"here, then run {COMMAND} {path.name}")
+            found.append(f"docs/screenshots/{path.name} shows an older page than static/ now: retake it with "
+                         f"{_taken_by(path.name)}, then run python3 -m tools.screenshots collect {path.name}")
     found += [f"MANIFEST.json names {name}, which is not in docs/screenshots/" for name in sorted(entries)
               if not (SHOTS / name).is_file()]
     return found
@@ -100,7 +119,23 @@ def record(names: list[str]) -> None:
 
 
 def _taken_by(name: str) -> str:
-    return next((test for prefix, test in TAKEN_BY.items() if name.startswith(prefix)), "tests/browser")
+    found = source(name)
+    return f"{found[0]} ({found[1]})" if found else "tests/browser"
+
+
+def collect(names: list[str]) -> list[str]:
+    """Copy the screenshots the browser tests just wrote to /tmp into docs/screenshots/, and record them.
+    Returns the names whose file was not found (their test did not run, or failed before its screenshot)."""
+    missing, taken = [], []
+    for name in names:
+        found = source(name)
+        if found is None or not found[1].is_file():
+            missing.append(name)
+            continue
+        (SHOTS / name).write_bytes(found[1].read_bytes())
+        taken.append(name)
+    record(taken)
+    return missing
 
 
 def _git(*args: str) -> bytes:
@@ -125,8 +160,13 @@ def main(argv: list[str]) -> int:
         for line in problems():
             print(line, file=sys.stderr)
         return 1 if problems() else 0
-    if argv[:1] in (["record"], ["backfill"]) and len(argv) > 1:
+    if argv[:1] in (["record"], ["backfill"], ["collect"]) and len(argv) > 1:
         names = [p.name for p in sorted(SHOTS.glob("*.png"))] if argv[1] == "--all" else argv[1:]
+        if argv[0] == "collect":
+            missing = collect(names)
+            for name in missing:
+                print(f"{name}: its browser test wrote no file in /tmp ({_taken_by(name)})", file=sys.stderr)
+            return 1 if missing else 0
         (record if argv[0] == "record" else backfill)(names)
         return 0
     print(__doc__, file=sys.stderr)
