@@ -6,11 +6,14 @@ sources at that moment (every file of static/ except the guide's own guide.css).
 when the page's sources now hash differently, and unrecorded when its PNG differs from the one recorded.
 
 Taking them: the browser tests write each view to /tmp/alpaca-zwo-<view>-<phone|desktop>.png (each
-entry's ``taken_by`` names the test and the file). Run those tests, then copy and record:
+entry's ``taken_by`` names the test and the file). /tmp is shared by every program on the machine, and
+another checkout's browser tests write the same names: run them with a /tmp of their own and copy the
+files out (as root: ``unshare -m sh -c 'mount -t tmpfs none /tmp && <the tests> ; cp /tmp/alpaca-zwo-*.png
+DIR/'``), then record them:
 
     scripts/run-tests tests/browser/test_page_handset.py tests/browser/test_page_in_the_dark.py \\
         tests/browser/test_page_skychart.py tests/browser/test_page_search.py tests/browser/test_page_first_contact.py
-    python3 -m tools.screenshots collect --all     (copies from /tmp and records; or name the screenshots)
+    python3 -m tools.screenshots collect --from DIR --all   (copies and records; or name the screenshots)
     python3 -m tools.screenshots record NAME...    (a screenshot put in docs/screenshots/ by hand)
     python3 -m tools.screenshots check             (what tests/test_docs.py runs)
 """
@@ -53,14 +56,14 @@ SOURCES = {
 }
 
 
-def source(name: str) -> tuple[str, Path] | None:
+def source(name: str, folder: Path = Path("/tmp")) -> tuple[str, Path] | None:
     """The test that takes screenshot ``name`` (``chart-day-phone.png``) and where it writes it."""
     stem, _, size = name.removesuffix(".png").rpartition("-")
     if stem not in SOURCES:
         return None
     test, pattern = SOURCES[stem]
     site = "north" if size == "phone" else "south"
-    return test, Path("/tmp") / f"alpaca-zwo-{pattern.format(size=size, site=site)}.png"
+    return test, folder / f"alpaca-zwo-{pattern.format(size=size, site=site)}.png"
 
 
 def page_hash(files: dict[str, bytes]) -> str:
@@ -98,7 +101,7 @@ def problems() -> list[str]:
             found.append(f"docs/screenshots/{path.name} changed since it was recorded: run {COMMAND} {path.name}")
         elif entry["page_sha256"] != now:
             found.append(f"docs/screenshots/{path.name} shows an older page than static/ now: retake it with "
-                         f"{_taken_by(path.name)}, then run python3 -m tools.screenshots collect {path.name}")
+                         f"{_taken_by(path.name)} and collect it (python3 -m tools.screenshots says how)")
     found += [f"MANIFEST.json names {name}, which is not in docs/screenshots/" for name in sorted(entries)
               if not (SHOTS / name).is_file()]
     return found
@@ -123,12 +126,12 @@ def _taken_by(name: str) -> str:
     return f"{found[0]} ({found[1]})" if found else "tests/browser"
 
 
-def collect(names: list[str]) -> list[str]:
-    """Copy the screenshots the browser tests just wrote to /tmp into docs/screenshots/, and record them.
-    Returns the names whose file was not found (their test did not run, or failed before its screenshot)."""
+def collect(names: list[str], folder: Path) -> list[str]:
+    """Copy the screenshots the browser tests just wrote (to /tmp, here ``folder``) into docs/screenshots/,
+    and record them. Returns the names whose file was not found (their test did not run, or failed first)."""
     missing, taken = [], []
     for name in names:
-        found = source(name)
+        found = source(name, folder)
         if found is None or not found[1].is_file():
             missing.append(name)
             continue
@@ -160,10 +163,13 @@ def main(argv: list[str]) -> int:
         for line in problems():
             print(line, file=sys.stderr)
         return 1 if problems() else 0
+    folder = Path("/tmp")
+    if len(argv) > 2 and argv[1] == "--from":
+        folder, argv = Path(argv[2]), [argv[0], *argv[3:]]
     if argv[:1] in (["record"], ["backfill"], ["collect"]) and len(argv) > 1:
         names = [p.name for p in sorted(SHOTS.glob("*.png"))] if argv[1] == "--all" else argv[1:]
         if argv[0] == "collect":
-            missing = collect(names)
+            missing = collect(names, folder)
             for name in missing:
                 print(f"{name}: its browser test wrote no file in /tmp ({_taken_by(name)})", file=sys.stderr)
             return 1 if missing else 0
