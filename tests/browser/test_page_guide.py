@@ -83,3 +83,15 @@ def test_the_guide_in_night_mode_is_red_light_only(live_server: AlpacaZwoServer,
     stray = [p for p in pixels if max(p[1], p[2]) > STRAY]
     assert stray == [], f"{len(stray)} of {len(pixels)} pixels carry green or blue light, e.g. {stray[:8]}"
     assert len([p for p in pixels if p[0] > 60]) > 1000, "the screenshot and the text are drawn, in red"
+
+
+def test_no_page_of_the_guide_scrolls_sideways_on_a_phone(live_server: AlpacaZwoServer, browser: WebDriver) -> None:
+    """Wide tables (the configuration keys, the clients) scroll inside themselves, never the page."""
+    browser.set_window_size(*PHONE)
+    base = f"http://127.0.0.1:{live_server.port}"
+    browser.get(base + "/docs")
+    pages = browser.execute_script("return [...document.querySelectorAll('.guide-nav a')].map((a) => a.href)")
+    assert len(pages) >= 15
+    for page in pages:
+        browser.get(page)
+        _readable_on_a_phone(browser)
