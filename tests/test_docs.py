@@ -29,7 +29,7 @@ from alpaca_zwo.config.settings import Settings, settings_from_dict
 from alpaca_zwo.emulator.cli import build_parser as emulator_parser
 from alpaca_zwo.server import AlpacaZwoServer
 from alpaca_zwo.telescope.actions import ACTIONS
-from alpaca_zwo.web.guide import heading_ids
+from alpaca_zwo.web.guide import Guide, heading_ids
 from tools import make_reference, screenshots
 
 if sys.version_info >= (3, 11):
@@ -98,6 +98,20 @@ def test_every_internal_link_and_anchor_resolves() -> None:
                 broken.append(f"{_name(page)}: {href} (no such file)")
             elif anchor and target.suffix == ".md" and anchor not in _anchors(target):
                 broken.append(f"{_name(page)}: {href} (no heading #{anchor} in {_name(target)})")
+    assert broken == []
+
+
+def test_the_pages_help_links_reach_a_section_of_the_guide() -> None:
+    """The setup page's Help link and each setting's "?" (static/index.html) open a page and heading that exist."""
+    page = (ROOT / "static" / "index.html").read_text(encoding="utf-8")
+    links = re.findall(r'href="/docs(?:/([a-z0-9-]+))?(?:#([^"]*))?"', page)
+    assert len(links) >= 10 and ("", "") in links
+    guide = Guide(ROOT / "docs")
+    broken = []
+    for name, anchor in links:
+        found = guide.find(name or "index")
+        if found is None or (anchor and anchor not in _anchors(found)):
+            broken.append(f"/docs/{name}#{anchor}")
     assert broken == []
 
 
