@@ -6,8 +6,9 @@
 - docs/guide/command-line.md: every option of ``alpaca-zwo`` and ``alpaca-zwo-emulator``, read off
   their argparse parsers (alpaca_zwo/cli.py, alpaca_zwo/emulator/cli.py).
 
-Run: python3 -m tools.make_reference          (writes both files)
-     python3 -m tools.make_reference --check  (exit 1 if either is out of date; tests/test_docs.py does this)
+Run (with any Python that has alpaca-zwo installed; scripts/run-tests makes .venv-test/):
+    .venv-test/bin/python -m tools.make_reference          writes both files
+    .venv-test/bin/python -m tools.make_reference --check  exit 1 if either is out of date (tests/test_docs.py)
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from alpaca_zwo.emulator.cli import build_parser as emulator_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 GUIDE = ROOT / "docs" / "guide"
-COMMAND = "python3 -m tools.make_reference"
+COMMAND = ".venv-test/bin/python -m tools.make_reference"
 
 #: The guide page that explains each table's keys in context.
 _TASK_PAGES = {
