@@ -30,7 +30,7 @@ from typing import Any
 
 from .._exceptions import LinkError, LinkTimeout, ProtocolError
 from . import firmware, protocol
-from .wire_values import parse_dms, parse_hms
+from .wire_values import parse_dms
 
 __all__ = [
     "PRIVATE",
@@ -190,29 +190,14 @@ def _status(readings: Readings) -> tuple[str, str] | None:
     return (match.group(1), match.group(2)) if match else None
 
 
-def _at_home_idle(readings: Readings) -> bool | None:
-    """Standing still at the home position (pole, counterweight down: hour angle 6 h), or None unknown."""
-    status = _status(readings)
-    dec, ra, lst = (_body(readings, code) for code in ("GD", "GR", "GS"))
-    if status is None or dec is None or ra is None or lst is None:
-        return None
-    try:
-        hour_angle = (parse_hms(lst) - parse_hms(ra)) % 24.0
-        pole = abs(abs(parse_dms(dec)) - 90.0) < 1.0 / 60.0
-    except (ProtocolError, ValueError):
-        return None
-    idle = "n" in status[0] and "N" in status[0]
-    return idle and pole and min(abs(hour_angle - 6.0), abs(hour_angle - 18.0)) < 0.05
-
-
 def _home_letter(readings: Readings) -> frozenset[Any] | None:
-    """'H' at home says the build shows it there (at power-up, or after a home we cannot know of);
-    no 'H' at home rules out a build that always shows it. Away from home no build shows 'H'."""
-    status, home = _status(readings), _at_home_idle(readings)
-    if status is None or not home:
+    """'H' shows only at home, so one showing rules out the build that never shows it. No 'H' proves nothing:
+    the position replies (whole seconds) cannot tell the exact home from a few arcseconds off it, where
+    no build shows 'H', and the survey cannot know whether the mount was homed since its power-up."""
+    status = _status(readings)
+    if status is None or "H" not in status[0]:
         return None
-    shown = "H" in status[0]
-    return frozenset({"after_home", "always_at_home"} if shown else {"after_home", "never"})
+    return frozenset({"after_home", "always_at_home"})
 
 
 def _status_word(readings: Readings) -> frozenset[Any] | None:
@@ -237,9 +222,9 @@ SWITCH_PROBES: tuple[SwitchProbe, ...] = (
     SwitchProbe("gh_reply", ("Gh",), _homed_reply,
                 "a home slew (:hC#), which moves the mount: before one, '0#' fits both 'zero' and 'homed'"),
     SwitchProbe("gmza_south_azimuth", ("GZ", "GMZA"), _south_azimuth, "both azimuth readings"),
-    SwitchProbe("home_flag", ("GU", "GD", "GR", "GS"), _home_letter,
-                "a home slew (:hC#), which moves the mount, to see whether 'H' shows after it; standing at "
-                "home, the status word rules out only one value"),
+    SwitchProbe("home_flag", ("GU",), _home_letter,
+                "a home slew (:hC#), which moves the mount, to see whether 'H' shows after it and after a power "
+                "cycle; an 'H' already showing rules out only 'never'"),
     SwitchProbe("status_word", ("GU",), _status_word, "a status word"),
     SwitchProbe("gt_mapping", ("GT",), None,
                 "a known solar or lunar rate selected (:TS#/:TL#), which changes the tracking; sidereal reads "
@@ -287,7 +272,7 @@ class SwitchVerdict:
     def line(self) -> str:
         shown = " or ".join(repr(v) if isinstance(v, str) else str(v) for v in self.values)
         if self.state == "settled":
-            return f"{self.switch} = {shown}  ({self.why})"
+            return f"{self.switch} = {shown} ({self.why})"
         if self.state == "narrowed":
             return f"{self.switch}: {shown}; to settle it needs {self.why}"
         if self.state == "unexpected":

@@ -146,6 +146,23 @@ def test_a_tracking_mount_away_from_home_is_left_exactly_as_it_was(rigs: list[Ri
     assert verdicts["home_flag"].state == "open"  # away from home the status word says nothing of 'H'
 
 
+def test_an_h_at_home_narrows_the_home_flag_and_none_a_hair_off_home_proves_nothing(rigs: list[Rig]) -> None:
+    """am5-x2 shows 'H' at home: 'never' is ruled out. Moved a few arcseconds in RA (the readings, in whole
+    seconds, may not show it) it shows no 'H', which must not be read as 'not always_at_home'."""
+    rig = Rig(preset("am5-x2"))
+    rigs.append(rig)
+    home = {v.switch: v for v in rig.survey().verdicts()}["home_flag"]
+    assert (home.state, home.values) == ("narrowed", ("after_home", "always_at_home"))
+    rig.model.select_speed(1)  # 0.5x sidereal: ~7.5 arcseconds a second
+    assert rig.model.move("w")
+    rig.clock.advance(0.5)
+    rig.model.stop()
+    rig.clock.advance(5.0)
+    assert not rig.model.snapshot()["at_home"]
+    home = {v.switch: v for v in rig.survey().verdicts()}["home_flag"]
+    assert home.state == "open"
+
+
 # ---------------------------------------------------------------- the report
 
 
