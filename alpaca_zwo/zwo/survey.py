@@ -174,9 +174,10 @@ def _azimuth(text: str | None) -> float | None:
 
 
 def _south_azimuth(readings: Readings) -> frozenset[Any] | None:
-    """:GMZA#'s azimuth against :GZ#'s, read a moment apart: the same (north-based) or 180 degrees off."""
-    plain, paired = _azimuth(_body(readings, "GZ")), _azimuth(_body(readings, "GMZA"))
-    if plain is None or paired is None:
+    """:GMZA#'s azimuth against :GZ#'s, read a moment apart: the same (north-based) or 180 degrees off.
+    Not while the status word shows a slew (no 'N'): the two readings would differ by the motion."""
+    plain, paired, status = _azimuth(_body(readings, "GZ")), _azimuth(_body(readings, "GMZA")), _status(readings)
+    if plain is None or paired is None or status is None or "N" not in status[0]:
         return None
     apart = abs((paired - plain + 180.0) % 360.0 - 180.0)
     if apart < 1.0:
@@ -221,7 +222,8 @@ SWITCH_PROBES: tuple[SwitchProbe, ...] = (
     SwitchProbe("gps_reply", ("Gps",), _park_status_reply, ""),
     SwitchProbe("gh_reply", ("Gh",), _homed_reply,
                 "a home slew (:hC#), which moves the mount: before one, '0#' fits both 'zero' and 'homed'"),
-    SwitchProbe("gmza_south_azimuth", ("GZ", "GMZA"), _south_azimuth, "both azimuth readings"),
+    SwitchProbe("gmza_south_azimuth", ("GU", "GZ", "GMZA"), _south_azimuth,
+                "both azimuth readings, taken while the mount is not slewing"),
     SwitchProbe("home_flag", ("GU",), _home_letter,
                 "a home slew (:hC#), which moves the mount, to see whether 'H' shows after it and after a power "
                 "cycle; an 'H' already showing rules out only 'never'"),

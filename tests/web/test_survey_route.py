@@ -50,7 +50,7 @@ def test_survey_of_a_connected_mount_names_its_preset_and_offers_the_report(serv
     assert body["mount"].startswith("AM5N firmware 1.6.3") and body["exchanges"] == len(SURVEY_COMMANDS)
     verdicts = _verdicts(body)
     assert verdicts["gmza_south_azimuth"] == {"switch": "gmza_south_azimuth", "state": "settled", "values": [True],
-                                              "line": "gmza_south_azimuth = True (from :GZ#, :GMZA#)"}
+                                              "line": "gmza_south_azimuth = True (from :GU#, :GZ#, :GMZA#)"}
     assert verdicts["model"]["values"] == ["AM5N"] and verdicts["hp_reply"]["state"] == "open"
     received = {exchange.body for exchange in recorder.all()}
     assert set(SURVEY_COMMANDS) <= received  # every question reached the mount (the poller's reads beside them)

@@ -11,6 +11,7 @@ import json
 import re
 from collections.abc import Iterator
 from dataclasses import asdict, fields
+from pathlib import Path
 
 import pytest
 
@@ -93,6 +94,24 @@ def test_every_firmware_switch_says_how_it_is_settled() -> None:
     for probe in SWITCH_PROBES:
         assert set(probe.commands) <= set(SURVEY_COMMANDS), probe.switch
         assert probe.classify is not None or probe.needs, probe.switch
+
+
+def test_the_docs_list_exactly_what_is_sent() -> None:
+    """docs/survey.md is the owner's promise: its list and its table are the code's list."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "survey.md").read_text(encoding="utf-8")
+    listed = re.search(r"<!-- survey-commands: ([^>]*) -->", text)
+    assert listed is not None and tuple(listed.group(1).split()) == SURVEY_COMMANDS
+    table = text[text.index("## What is sent"):text.index("## What the report holds")]
+    rows = "\n".join(line for line in table.splitlines() if line.startswith("|"))
+    assert sorted(re.findall(r"`:(\w+)#`", rows)) == sorted(SURVEY_COMMANDS)
+
+
+def test_azimuths_read_during_a_slew_settle_nothing() -> None:
+    readings = {"GU": "nG000000000#", "GZ": "010*00:00#", "GMZA": "190*00:00&+20*00:00#"}
+    assert SWITCH_PROBES[5].switch == "gmza_south_azimuth"
+    classify = SWITCH_PROBES[5].classify
+    assert classify is not None and classify(readings) is None
+    assert classify({**readings, "GU": "nNG000000000#"}) == frozenset({True})
 
 
 def test_redaction_keeps_the_shape_and_the_first_field() -> None:
