@@ -54,6 +54,9 @@ def test_survey_of_a_connected_mount_names_its_preset_and_offers_the_report(serv
     assert verdicts["model"]["values"] == ["AM5N"] and verdicts["hp_reply"]["state"] == "open"
     received = {exchange.body for exchange in recorder.all()}
     assert set(SURVEY_COMMANDS) <= received  # every question reached the mount (the poller's reads beside them)
+    link = client.status()["link"]
+    assert link["state"] == "connected" and link["timeouts"] == 0 and not link["poll_error"], link
+    wait_until(lambda: client.status()["link"]["exchanges"] > link["exchanges"], what="the poller reading on")
 
     download = client.session.get(f"{client.base}{ROUTE}.txt", timeout=TIMEOUT)
     assert download.status_code == 200 and download.headers["Content-Type"].startswith("text/plain")

@@ -108,8 +108,7 @@ def test_the_docs_list_exactly_what_is_sent() -> None:
 
 def test_azimuths_read_during_a_slew_settle_nothing() -> None:
     readings = {"GU": "nG000000000#", "GZ": "010*00:00#", "GMZA": "190*00:00&+20*00:00#"}
-    assert SWITCH_PROBES[5].switch == "gmza_south_azimuth"
-    classify = SWITCH_PROBES[5].classify
+    classify = next(probe.classify for probe in SWITCH_PROBES if probe.switch == "gmza_south_azimuth")
     assert classify is not None and classify(readings) is None
     assert classify({**readings, "GU": "nNG000000000#"}) == frozenset({True})
 
