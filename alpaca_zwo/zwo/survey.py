@@ -88,9 +88,10 @@ class Exchange:
 
     def shown_reply(self) -> str:
         """The reply as the file writes it: quoted, private digits as ``x``, anything unprintable escaped."""
-        if self.reply is None:
-            return f"(nothing: {self.note})"
-        text = redact(self.reply) if self.code in PRIVATE else self.reply
+        private = self.code in PRIVATE
+        if self.reply is None:  # the link's words may quote what came: as private as a reply
+            return f"(nothing: {redact(self.note) if private else self.note})"
+        text = redact(self.reply) if private else self.reply
         quoted = "".join(ch if " " <= ch <= "~" else f"\\x{ord(ch):02x}" for ch in text)
         extra = "  (a lone '#': the empty answer)" if self.reply == "#" else ""
         return f'"{quoted}" ({len(self.reply)} B){extra}'

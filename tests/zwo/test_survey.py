@@ -23,6 +23,7 @@ from alpaca_zwo.zwo.survey import (
     PRIVATE,
     SURVEY_COMMANDS,
     SWITCH_PROBES,
+    Exchange,
     SurveyContext,
     SurveyReport,
     redact,
@@ -119,6 +120,8 @@ def test_redaction_keeps_the_shape_and_the_first_field() -> None:
     assert redact("10:13:56#") == "10:xx:xx#"
     assert redact("180*00:00&+31*15:41#") == "180*xx:xx&+31*xx:xx#"
     assert redact("#") == "#"
+    garbled = Exchange("Gt", ":Gt#", None, 0.0, 1.0, "not one reply: implausible reply '+37*07:51\\x01#' to :Gt#")
+    assert "07:51" not in garbled.shown_reply() and garbled.shown_reply().startswith("(nothing: not one reply")
 
 
 # ---------------------------------------------------------------- against every preset
