@@ -137,6 +137,8 @@ def test_survey_sends_only_the_list_changes_nothing_and_names_the_preset(name: s
     assert _state(rig.model) == before
     received = [exchange.body for exchange in rig.recorder.all()]
     assert received and set(received) <= set(SURVEY_COMMANDS), received
+    # ... and not one byte besides those commands reached the emulator (nothing that framed as no command)
+    assert rig.server.stats()["total"]["bytes_in"] == sum(len(f":{body}#") for body in received)
     assert [e.code for e in report.exchanges] == list(SURVEY_COMMANDS) and not report.stopped
     settled = 0
     for verdict in report.verdicts():
