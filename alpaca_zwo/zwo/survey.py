@@ -382,11 +382,17 @@ class SurveyReport:
         return "\n".join(lines) + "\n"
 
 
+#: This many questions in a row without a reply: the mount has stopped answering (a known query on the
+#: list is silent alone, as :GTa# before 1.2.4), so the rest would only add a timeout each.
+MUTE_AFTER = 3
+
+
 def run_survey(send: Send, context: SurveyContext, commands: Sequence[str] = SURVEY_COMMANDS) -> SurveyReport:
     """Ask every command of ``commands`` (a subset of :data:`SURVEY_COMMANDS`) through ``send``, in order.
 
-    A lost link ends the survey (what was asked is kept, ``stopped`` says why); silence or a garbled
-    reply is recorded and the survey goes on, since a silent query is itself an answer worth reporting.
+    A lost link, or a mount silent :data:`MUTE_AFTER` times in a row, ends the survey (what was asked is
+    kept, ``stopped`` says why); a single silence or garbled reply is recorded and the survey goes on,
+    since a silent query is itself an answer worth reporting.
     """
     unknown = [code for code in commands if code not in SURVEY_COMMANDS]
     if unknown:
@@ -398,5 +404,9 @@ def run_survey(send: Send, context: SurveyContext, commands: Sequence[str] = SUR
             report.exchanges.append(_ask(send, code, began))
         except LinkError as exc:
             report.stopped = f"the link to the mount failed at :{code}#: {exc}"
+            break
+        recent = report.exchanges[-MUTE_AFTER:]
+        if len(recent) == MUTE_AFTER and all(e.reply is None for e in recent):
+            report.stopped = f"the mount stopped answering ({MUTE_AFTER} questions in a row without a reply)"
             break
     return report

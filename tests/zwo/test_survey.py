@@ -216,3 +216,39 @@ def test_the_report_has_every_exchange_timed_and_no_site(rigs: list[Rig]) -> Non
     assert '"#" (1 B)' in text  # :Gh#'s lone '#' written so it cannot be mistaken for silence
     assert "model = 'AM5'" in text and "version = '1.9.2'" in text
     assert all(code in PRIVATE for code in ("Gt", "Gg", "GS"))
+
+
+def test_a_lost_link_ends_the_survey_and_keeps_what_was_asked(rigs: list[Rig]) -> None:
+    rig = Rig(preset("am5-1.9.2"), timeout=0.3)
+    rigs.append(rig)
+    asked: list[str] = []
+
+    def send(request: protocol.Request) -> str:
+        if len(asked) == 4:
+            rig.server.stop()  # the mount's WiFi goes away after four questions
+        asked.append(request.text)
+        return rig.link.exchange(request)
+
+    report = run_survey(send, CONTEXT)
+    assert report.stopped, report.text()
+    assert [e.sent for e in report.exchanges[:4]] == [":GVP#", ":GV#", ":GVT#", ":GU#"]
+    assert all(e.reply for e in report.exchanges[:4]) and len(report.exchanges) < len(SURVEY_COMMANDS)
+    text = report.text()
+    assert "survey stopped early: " in text and "model = 'AM5'" in text
+
+
+def test_a_mount_that_stops_answering_ends_the_survey_after_three_silences(rigs: list[Rig]) -> None:
+    rig = Rig(preset("am5-1.9.2"), timeout=0.3)
+    rigs.append(rig)
+
+    def send(request: protocol.Request) -> str:
+        if request.text == ":Gps#":
+            rig.model.faults.drop_replies(1000)  # every reply from here on is lost
+        return rig.link.exchange(request)
+
+    report = run_survey(send, CONTEXT)
+    assert [e.sent for e in report.exchanges[-3:]] == [":Gps#", ":Gh#", ":Gm#"]
+    assert all(e.reply is None for e in report.exchanges[-3:])
+    assert report.stopped == "the mount stopped answering (3 questions in a row without a reply)"
+    verdicts = {v.switch: v for v in report.verdicts()}
+    assert verdicts["gps_reply"].state == "open" and verdicts["model"].values == ("AM5",)
