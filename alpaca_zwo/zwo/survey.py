@@ -212,7 +212,6 @@ def _status_word(readings: Readings) -> frozenset[Any] | None:
     return frozenset({"1.8.8" if real else "documents"})
 
 
-_MOTION = "motion"
 #: Every switch with what decides it. A FirmwareVariant field without a row here fails
 #: tests/zwo/test_survey.py: a new switch must say how an owner's mount settles it, or why it cannot.
 #: Rows for switches this build's FirmwareVariant lacks (other branches add them) are ignored.
