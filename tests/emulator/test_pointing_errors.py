@@ -131,8 +131,8 @@ def test_machine_terms_change_sign_across_a_flip_and_the_polar_axis_terms_do_not
 
 def test_signs_are_tpoints_one_term_at_a_time() -> None:
     """sky = axes - Δ(axes): a positive IH puts the tube west of where the axes say (larger HA), a positive
-    ID south, a positive ME (polar axis too high) lowers the sky Dec on the meridian, a positive MA lowers
-    it at HA +6 h (TPOINT: Δδ = +MA sin h, +ME cos h)."""
+    ID north (TPOINT: Δδ = -ID), a positive ME (polar axis too high) lowers the sky Dec on the meridian, a
+    positive MA (polar axis west of the pole) lowers it at HA +6 h (TPOINT: Δδ = +MA sin h, +ME cos h)."""
     lat = 40.0
     assert equatorial_offset({"IH": 6.0}, 1.0, 20.0, lat, False) == pytest.approx((0.1 / 15.0, 0.0))
     assert equatorial_offset({"ID": 6.0}, 1.0, 20.0, lat, False) == pytest.approx((0.0, 0.1))
