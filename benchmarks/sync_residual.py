@@ -47,7 +47,9 @@ def wrap12(hours: float) -> float:
 class Bench:
     """The in-process server on its built-in emulator, and a client."""
 
-    def __init__(self, speed: float, baud: int, work: Path) -> None:
+    def __init__(self, speed: float, baud: int, work: Path, *, latitude: float = LATITUDE,
+                 **emulator_settings: Any) -> None:
+        """``emulator_settings``: further ``[emulator]`` settings (benchmarks/pointing.py: its pointing errors)."""
         from alpaca_zwo.config.settings import (
             EmulatorSettings,
             ServerSettings,
@@ -60,8 +62,8 @@ class Bench:
 
         settings = assign_unique_ids(Settings(
             server=ServerSettings(host="127.0.0.1", port=0, discovery_port=0),
-            site=SiteSettings(latitude=LATITUDE, longitude=-0.0005, elevation=46.0),
-            emulator=EmulatorSettings(speed=speed, baud=baud)))
+            site=SiteSettings(latitude=latitude, longitude=-0.0005, elevation=46.0),
+            emulator=EmulatorSettings(speed=speed, baud=baud, **emulator_settings)))
         self.server = AlpacaZwoServer(SettingsStore(settings, work / "config.toml"))
         self.server.start()
         emulator = self.server.emulators[0]
