@@ -20,7 +20,6 @@ everywhere). Each error set gets a fresh server, configuration folder and emulat
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import shlex
@@ -33,7 +32,7 @@ from typing import Any
 
 from alpaca_zwo import sky
 
-from .sync_residual import RESULTS, Bench, _commit
+from .sync_residual import Bench, _commit, save
 
 #: Error sets: name -> (TPOINT terms in arcminutes, scatter RMS in arcseconds).
 ERROR_SETS: dict[str, tuple[str, float]] = {
@@ -159,12 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     started = time.time()
     results: dict[str, Any] = {"meta": meta, "sets": {name: run_set(name, args) for name in names}}
     meta.update(duration_s=round(time.time() - started, 1), loadavg_end=os.getloadavg())
-    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-pointing"
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / f"{stamp}.json").write_text(json.dumps(results, indent=1))
-    table = render(results)
-    (RESULTS / f"{stamp}.md").write_text(table)
-    print(table)
+    save(datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-pointing", results, render)
     return 0
 
 

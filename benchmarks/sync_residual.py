@@ -27,6 +27,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -164,13 +165,17 @@ def main(argv: list[str] | None = None) -> int:
         finally:
             bench.close()
     meta.update(duration_s=round(time.time() - started, 1), loadavg_end=os.getloadavg())
-    results = {"meta": meta, "rows": rows}
+    save(stamp, {"meta": meta, "rows": rows}, render)
+    return 0
+
+
+def save(stamp: str, results: dict[str, Any], render: Callable[[dict[str, Any]], str]) -> None:
+    """Write ``results/<stamp>.json`` (every number) and ``.md`` (the table ``render`` makes), print the table."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / f"{stamp}.json").write_text(json.dumps(results, indent=1))
     table = render(results)
     (RESULTS / f"{stamp}.md").write_text(table)
     print(table)
-    return 0
 
 
 def _commit() -> str:
