@@ -32,6 +32,7 @@ from typing import Any
 
 from alpaca_zwo import sky
 
+from .client import ReplyError
 from .sync_residual import Bench, _commit, save
 
 #: Error sets: name -> (TPOINT terms in arcminutes, scatter RMS in arcseconds).
@@ -75,12 +76,19 @@ class PointingBench:
         self.bench.slew(ra, dec)
         return ra, dec
 
-    def sync_on(self, ha: float, dec: float) -> float:
-        """Slew to a star, then sync on where the tube truly points (a plate solve); the miss before, arcsec."""
+    def sync_on(self, ha: float, dec: float) -> dict[str, Any]:
+        """Slew to a star, then sync on where the tube truly points (a plate solve): the miss before it, and
+        the server's refusal if it refused the point (a pointing model may refuse one it finds grossly wrong)."""
         ra, dec = self.goto(ha, dec)
         sky_ra, sky_dec, _ = self.truth()
-        self.bench.client.put("synctocoordinates", RightAscension=f"{sky_ra:.10f}", Declination=f"{sky_dec:.10f}")
-        return sky.angular_separation(ra, dec, sky_ra, sky_dec) * 3600.0
+        miss = sky.angular_separation(ra, dec, sky_ra, sky_dec) * 3600.0
+        row: dict[str, Any] = {"ha": ha, "dec": dec, "miss_before_arcsec": round(miss, 2)}
+        try:
+            self.bench.client.put("synctocoordinates", RightAscension=f"{sky_ra:.10f}", Declination=f"{sky_dec:.10f}")
+        except ReplyError as exc:
+            row["refused"] = str(exc)
+            print(f"[{time.strftime('%H:%M:%S')}] sync at HA {ha:+.1f} h, Dec {dec:+.0f}° refused: {exc}", flush=True)
+        return row
 
     def measure(self, grid: list[tuple[float, float]]) -> list[dict[str, Any]]:
         rows = []
@@ -104,12 +112,11 @@ def run_set(name: str, args: argparse.Namespace) -> dict[str, Any]:
             harness = PointingBench(bench)
             for count in COUNTS:
                 while len(result["syncs"]) < min(count, len(stars)):
-                    ha, dec = stars[len(result["syncs"])]
-                    miss = harness.sync_on(ha, dec)
-                    result["syncs"].append({"ha": ha, "dec": dec, "miss_before_arcsec": round(miss, 2)})
+                    result["syncs"].append(harness.sync_on(*stars[len(result["syncs"])]))
                 rows = harness.measure(grid)
                 misses = [r["miss_arcsec"] for r in rows]
-                summary = {"syncs": len(result["syncs"]), "n": len(rows), "rms_arcsec": round(rms(misses), 1),
+                summary = {"syncs": len(result["syncs"]), "refused": sum("refused" in r for r in result["syncs"]),
+                           "n": len(rows), "rms_arcsec": round(rms(misses), 1),
                            "worst_arcsec": round(max(misses), 1), "rows": rows}
                 result["rounds"].append(summary)
                 print(f"[{time.strftime('%H:%M:%S')}] {name}: {summary['syncs']} syncs, RMS "
@@ -132,7 +139,8 @@ def render(results: dict[str, Any]) -> str:
     for name, result in results["sets"].items():
         for summary in result["rounds"]:
             sides = [rms([r["miss_arcsec"] for r in summary["rows"] if r["side"] == side]) for side in ("EAST", "WEST")]
-            lines.append(f"| {name} | {summary['syncs']} | {summary['n']} | {summary['rms_arcsec'] / 60.0:.2f}′ | "
+            refused = f" ({summary['refused']} refused)" if summary.get("refused") else ""
+            lines.append(f"| {name} | {summary['syncs']}{refused} | {summary['n']} | {summary['rms_arcsec'] / 60.0:.2f}′ | "
                          f"{summary['worst_arcsec'] / 60.0:.2f}′ | {sides[0] / 60.0:.2f}′ | {sides[1] / 60.0:.2f}′ |")
     return "\n".join(lines) + "\n"
 
