@@ -140,8 +140,9 @@ def render(results: dict[str, Any]) -> str:
         for summary in result["rounds"]:
             sides = [rms([r["miss_arcsec"] for r in summary["rows"] if r["side"] == side]) for side in ("EAST", "WEST")]
             refused = f" ({summary['refused']} refused)" if summary.get("refused") else ""
-            lines.append(f"| {name} | {summary['syncs']}{refused} | {summary['n']} | {summary['rms_arcsec'] / 60.0:.2f}′ | "
-                         f"{summary['worst_arcsec'] / 60.0:.2f}′ | {sides[0] / 60.0:.2f}′ | {sides[1] / 60.0:.2f}′ |")
+            lines.append(f"| {name} | {summary['syncs']}{refused} | {summary['n']} | "
+                         f"{summary['rms_arcsec'] / 60.0:.2f}′ | {summary['worst_arcsec'] / 60.0:.2f}′ | "
+                         f"{sides[0] / 60.0:.2f}′ | {sides[1] / 60.0:.2f}′ |")
     return "\n".join(lines) + "\n"
 
 
