@@ -224,10 +224,10 @@ def test_altaz_mode_takes_its_own_terms(site: str) -> None:
 def test_control_port_sets_and_reports_the_errors() -> None:
     _clock, model = make_model("north")
     server = EmulatorServer(model, host="127.0.0.1", port=0, baud=0)
-    assert execute(server, "pointing-errors IH=20,MA=-3") == {"ok": True, "command": "pointing-errors"}
+    assert execute(server, "pointing-errors IH=20.123456789,MA=-3") == {"ok": True, "command": "pointing-errors"}
     assert execute(server, "pointing-noise 4 9") == {"ok": True, "command": "pointing-noise"}
     assert execute(server, "pointing") == {
-        "ok": True, "pointing": {"terms_arcmin": {"IH": 20.0, "MA": -3.0}, "noise_arcsec": 4.0, "seed": 9}}
+        "ok": True, "pointing": {"terms_arcmin": {"IH": 20.123456789, "MA": -3.0}, "noise_arcsec": 4.0, "seed": 9}}
     assert execute(server, "state")["state"]["pointing_errors"]["noise_arcsec"] == 4.0
     assert execute(server, "pointing-errors XX=1")["ok"] is False
     assert execute(server, "pointing-noise -1")["ok"] is False
