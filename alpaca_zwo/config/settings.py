@@ -442,6 +442,7 @@ class EmulatorSettings:
     pointing_errors: str = _setting("", _pointing_terms)
     #: Unmodelled scatter of every pointing, RMS arcseconds on the sky (repeatable: seeded by pointing_seed).
     pointing_noise: float = _setting(0.0, _float(0.0, 3600.0))
+    #: The seed of pointing_noise's scatter: the same seed gives the same scatter, run after run.
     pointing_seed: int = _setting(0, _int(0, 2**31 - 1))
 
 
