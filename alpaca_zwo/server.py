@@ -96,7 +96,7 @@ class AlpacaZwoServer:
         self.advertiser: Any = None
         self.stellarium: Any = None  # bridges.stellarium.StellariumBridge when [stellarium] is on
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
-        #: The observatory interlock (README, *Observatory*): one gate for every telescope, the watch that
+        #: The observatory interlock (docs/guide/observatory.md): one gate for every telescope, the watch that
         #: polls the SafetyMonitor and roof into it, and the responder that parks or stops the mounts.
         self.interlock = Interlock()
         self.safety_watch: SafetyWatch | None = None

@@ -82,7 +82,7 @@ def status_view(facade: ServerFacade, device: DeviceFacade, page_key: ClientKey)
         "clients": clients_view(facade, connected_keys),
         "sky": sky_view(settings, device, meridian["limit_deg"]),
         "bridges": facade.bridges(),
-        "safety": facade.safety(),  # the observatory interlock (README, *Observatory*)
+        "safety": facade.safety(),  # the observatory interlock (docs/guide/observatory.md)
     }
 
 
