@@ -24,8 +24,11 @@ __all__ = [
     "GPS_REPLIES",
     "GT_MAPPINGS",
     "HOME_FLAGS",
+    "HOME_READINGS",
     "HP_REPLIES",
     "HP_WHILE_TRACKING",
+    "JOG_RATES",
+    "MEASURED_JOG_SPEEDS",
     "MODELS",
     "NS_MOVES",
     "PARKED_REFUSED",
@@ -33,6 +36,7 @@ __all__ = [
     "PIER_LETTERS",
     "PRESETS",
     "STATUS_WORDS",
+    "UNKNOWN_QUERIES",
     "FirmwareVariant",
     "has_feature",
     "preset",
@@ -62,6 +66,20 @@ HP_WHILE_TRACKING = ("parks", "ignored")
 #: the 1.8.8 word: an ``M`` letter, no ``P``, parked or parking shows ``n`` alone, and the last digit
 #: says the state (5 parked, 3 a manual move, 1 tracking, 0 otherwise).
 STATUS_WORDS = ("documents", "1.8.8")
+#: What a request the firmware does not know gets: nothing (the documents, field notes §2.9), or, as
+#: 1.8.8 answered on the wire, a lone ``#`` for an unknown ``:G…#`` query (a known two-letter query
+#: that no longer query extends is answered as itself whatever follows: ``:GCAL#`` is ``:GC#``),
+#: with ``:GX…#`` and the queries forwarded to the second controller silent, and the 1.8.8 extras
+#: ``:GAST#``, ``:GRr#``/``:GDr#`` and ``:GVD#`` answered (docs/firmware-evidence.md).
+UNKNOWN_QUERIES = ("silent", "1.8.8")
+#: What the mount reads at its home position (counterweight down, tube at the pole): the documents'
+#: ``N`` and hour angle −6 h (in the north), or, as an AM5N on 1.8.8 read at home, the through-the-pole
+#: side: ``E`` and hour angle +6 h, with the azimuth of the pole written ``360*00:00``.
+HOME_READINGS = ("documents", "through_pole")
+#: The :R0#…:R9# speeds: the documents' table, or the four an AM5N on 1.8.8 was measured at
+#: (R1 0.3x, R3 1.9x, R5 7.8x, R7 60x; S1), the others as documented.
+JOG_RATES = ("documents", "measured")
+MEASURED_JOG_SPEEDS: tuple[float, ...] = (0.25, 0.3, 1.0, 1.9, 4.0, 7.8, 20.0, 60.0, 720.0, 1440.0)
 #: The request bodies a parked 1.8.8 mount answered ``e14#`` (``Mg`` stands for every pulse):
 #: S1 (epim/astrodeck docs/hardware/zwo-am5-lx200-protocol.md) lists :MS# :Te# :TQ# :Mg*# :Ms# and
 #: :hR# :hU# :hN# :hF# :hW# :hS# :hP# :I# :PO# :MP#; :Mn#/:Me#/:Mw# (the rest of the move class)
@@ -91,7 +109,7 @@ def has_feature(version: str, feature: str) -> bool:
 
 
 #: The switches that are quirks (everything but the identity fields).
-_IDENTITY = ("name", "model", "version", "compile_time", "description")
+_IDENTITY = ("name", "model", "version", "compile_time", "build_date", "description")
 
 
 @dataclass
@@ -127,6 +145,13 @@ class FirmwareVariant:
     park_refusal: str = "documents"  # documents | e14
     hp_while_tracking: str = "parks"  # parks | ignored
     status_word: str = "documents"  # documents | 1.8.8
+    unknown_query: str = "silent"  # silent | 1.8.8
+    home_reading: str = "documents"  # documents | through_pole
+    jog_rates: str = "documents"  # documents | measured
+    #: Where :hP# goes: the factory park (OTA horizontal) or, as an AM5N on 1.8.8 did ("`:hP#` park
+    #: slews home from anywhere", Dec read +90 while parked), the home position.
+    park_at_home: bool = False
+    build_date: str = "Jan 25 2026"  # :GVD# (answered where unknown_query is 1.8.8)
     name: str = "custom"  # the preset this came from ("custom" when built by hand)
     description: str = ""  # where this build's behaviour was seen
 
@@ -146,6 +171,9 @@ class FirmwareVariant:
             "park_refusal": PARK_REFUSALS,
             "hp_while_tracking": HP_WHILE_TRACKING,
             "status_word": STATUS_WORDS,
+            "unknown_query": UNKNOWN_QUERIES,
+            "home_reading": HOME_READINGS,
+            "jog_rates": JOG_RATES,
         }
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
@@ -175,7 +203,8 @@ def _preset(name: str, description: str, **switches: Any) -> FirmwareVariant:
 #: What the 1.8.8 transcripts show (docs/firmware-evidence.md): :hP# answers nothing (S1's byte-level
 #: capture; S2's unverified "1#/0#" stays a switch, ``hp_reply``), the firmware's own park.
 _REAL_1_8_8: dict[str, Any] = {"hp_reply": None, "park_refusal": "e14", "hp_while_tracking": "ignored",
-                               "status_word": "1.8.8"}
+                               "status_word": "1.8.8", "unknown_query": "1.8.8", "home_reading": "through_pole",
+                               "jog_rates": "measured", "park_at_home": True, "gh_reply": "zero"}
 
 #: Named builds, the first the default. Each quirk cites where it was seen (field notes §0 keys).
 PRESETS: dict[str, FirmwareVariant] = {
