@@ -259,7 +259,8 @@ class MountModel:
                 mech.start_slew(self.altaz_rules.goto(raw_ha, raw_dec))
                 return 0
             hemisphere = mech.hemisphere()
-            side = sky.goto_pier_side(raw_ha, mech.side(), self._goto_limit_deg())
+            current = hemisphere.side(True) if self._home_through_pole() else mech.side()  # the side :Gm# names
+            side = sky.goto_pier_side(raw_ha, current, self._goto_limit_deg())
             p, s = hemisphere.axes(raw_ha, raw_dec, side)
             mech.start_slew(Slew("goto", mech.t, p, hemisphere.primary_rate(SIDEREAL_DEG_S), s,
                                  hemisphere.outer(side)))

@@ -14,6 +14,7 @@ No project imports: the config layer and the emulator both read this module.
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -178,8 +179,8 @@ class FirmwareVariant:
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
                 raise ValueError(f"FirmwareVariant.{name} must be one of {allowed}, not {getattr(self, name)!r}")
-        if self.model not in MODELS:
-            raise ValueError(f"unknown mount model {self.model!r}")
+        if not re.fullmatch(r"AM\d{1,2}[A-Z]{0,2}", self.model):  # AM5N, or a suffix still to come (AM5X)
+            raise ValueError(f"not a ZWO mount model: {self.model!r}")
 
     def as_dict(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in fields(self)}
