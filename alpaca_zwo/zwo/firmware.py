@@ -77,10 +77,11 @@ UNKNOWN_QUERIES = ("silent", "1.8.8")
 #: ``N`` and hour angle −6 h (in the north), or, as an AM5N on 1.8.8 read at home, the through-the-pole
 #: side: ``E`` and hour angle +6 h, with the azimuth of the pole written ``360*00:00``.
 HOME_READINGS = ("documents", "through_pole")
-#: The :R0#…:R9# speeds: the documents' table, or the four an AM5N on 1.8.8 was measured at
-#: (R1 0.3x, R3 1.9x, R5 7.8x, R7 60x; S1), the others as documented.
+#: The :R0#…:R9# speeds: the documents' table, or as an AM5N on 1.8.8 was measured (S1): R3 1.9x,
+#: R5 7.8x, R7 60x. R1 stays 0.5x: S1's table says 0.3x, but its own 10 s calibrations of the same
+#: session moved 0.5x at R1 (docs/firmware-evidence.md, "Where the sources conflict").
 JOG_RATES = ("documents", "measured")
-MEASURED_JOG_SPEEDS: tuple[float, ...] = (0.25, 0.3, 1.0, 1.9, 4.0, 7.8, 20.0, 60.0, 720.0, 1440.0)
+MEASURED_JOG_SPEEDS: tuple[float, ...] = (0.25, 0.5, 1.0, 1.9, 4.0, 7.8, 20.0, 60.0, 720.0, 1440.0)
 #: The request bodies a parked 1.8.8 mount answered ``e14#`` (``Mg`` stands for every pulse):
 #: S1 (epim/astrodeck docs/hardware/zwo-am5-lx200-protocol.md) lists :MS# :Te# :TQ# :Mg*# :Ms# and
 #: :hR# :hU# :hN# :hF# :hW# :hS# :hP# :I# :PO# :MP#; :Mn#/:Me#/:Mw# (the rest of the move class)
