@@ -47,7 +47,7 @@ class Overrides:
     emulator_speed: float | None = None
     emulator_baud: int | None = None
     emulator_mode: str | None = None  # --emulator-mode eq|altaz
-    emulator_preset: str | None = None  # --emulator-preset NAME: the built-in emulator's firmware build
+    emulator_preset: str | None = None  # --emulator-preset NAME: the built-in emulator's firmware (zwo/firmware.py)
     stellarium_port: int | None = None  # --stellarium-port N: Stellarium's telescope server on N
     zwo_port: int | None = None  # --zwo-port N: serve the shared ZWO-protocol port on N for this run
 
@@ -57,7 +57,6 @@ class EmbeddedEmulator:
 
     def __init__(self, settings: Settings, speed: float, baud: int, mode: str | None = None,
                  preset_name: str | None = None) -> None:
-        """``mode`` and ``preset_name`` override the config's ``[emulator] mode`` and ``preset`` for this run."""
         from .emulator import EmulatorServer, MountModel, ScaledClock, preset
         from .zwo.wire_values import MountMode
 
