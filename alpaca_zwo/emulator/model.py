@@ -50,7 +50,7 @@ from typing import Any
 
 from .. import sky
 from ..sky import SIDEREAL_DEG_S
-from ..zwo.firmware import FirmwareVariant
+from ..zwo.firmware import MEASURED_JOG_SPEEDS, FirmwareVariant
 from ..zwo.wire_values import SLEW_SPEEDS, MountMode, MountStatus
 from .altaz import AltAzRules
 from .clock import Clock
@@ -169,10 +169,21 @@ class MountModel:
     # ---------------------------------------------------------------- position, target
 
     def position(self) -> tuple[float, float]:
-        """(RA hours, Dec degrees) the mount reports, alignment offsets included."""
+        """(RA hours, Dec degrees) the mount reports, alignment offsets included; at home, on firmware
+        that counts home as the through-the-pole side, the hour angle of that side (+6 h in the north)."""
+        mech = self.mechanics
         with self._lock:
-            self.mechanics.advance()
-            return self.mechanics.reported()
+            mech.advance()
+            ra, dec = mech.reported()
+            if self._home_through_pole():
+                ra = sky.wrap_hours_24(ra + 12.0)
+            return ra, dec
+
+    def _home_through_pole(self) -> bool:
+        """At the home position on firmware that reads it as the through-the-pole side (``home_reading``,
+        AM5N 1.8.8: ``E`` and hour angle +6 h). Callers hold the lock and have advanced the mechanics."""
+        mech = self.mechanics
+        return self.firmware.home_reading == "through_pole" and not mech.altaz() and mech.at_home_position()
 
     def horizontal(self) -> tuple[float, float]:
         """(altitude, azimuth from north) of the reported position, at the mount's site and LST."""
@@ -222,6 +233,8 @@ class MountModel:
         mech = self.mechanics
         with self._lock:
             mech.advance()
+            if self._home_through_pole():
+                return "W" if mech.hemisphere().side(True) is sky.PierSide.WEST else "E"
             if mech.at_home_position():
                 return "N"
             rule = self.firmware.pier_letter
@@ -275,7 +288,8 @@ class MountModel:
                 mech.start_slew(self.altaz_rules.goto(raw_ha, raw_dec))
                 return 0
             hemisphere = mech.hemisphere()
-            side = sky.goto_pier_side(raw_ha, mech.side(), self._goto_limit_deg())
+            current = hemisphere.side(True) if self._home_through_pole() else mech.side()  # the side :Gm# names
+            side = sky.goto_pier_side(raw_ha, current, self._goto_limit_deg())
             p, s = hemisphere.axes(raw_ha, raw_dec, side)
             mech.start_slew(Slew("goto", mech.t, p, hemisphere.primary_rate(SIDEREAL_DEG_S), s,
                                  hemisphere.outer(side)))
@@ -306,7 +320,10 @@ class MountModel:
             mech.advance()
             if self.flash.mode_in_effect is not MountMode.EQUATORIAL:
                 return False
-            p, s = self.flash.persist.custom_park or (PARK_P, PARK_S)
+            if mech.tracking and self.firmware.hp_while_tracking == "ignored":
+                return False  # AM5N 1.8.8: never moves, never parks (docs/firmware-evidence.md)
+            factory = (HOME_P, HOME_S) if self.firmware.park_at_home else (PARK_P, PARK_S)
+            p, s = self.flash.persist.custom_park or factory
             self.flash.persist.parked = True
             mech.start_slew(Slew("park", mech.t, p, 0.0, s, abs(s) > 90.0))
             return True
@@ -318,6 +335,11 @@ class MountModel:
             was = self.flash.persist.parked
             self.flash.persist.parked = False
             return was
+
+    def parked(self) -> bool:
+        """Whether the park latch is set (parking or parked): it survives power cycles, it is in flash."""
+        with self._lock:
+            return self.flash.persist.parked
 
     def park_status(self) -> int:
         """0 not parked, 1 parking, 2 parked."""
@@ -378,8 +400,9 @@ class MountModel:
 
     def select_speed(self, index: int) -> None:
         """``:Rn#`` (and ``:RG/:RC/:RM/:RS``): fixed speed for both axes, latched by ``:M?#``."""
+        speeds = MEASURED_JOG_SPEEDS if self.firmware.jog_rates == "measured" else SLEW_SPEEDS
         with self._lock:
-            self.mechanics.speed = SLEW_SPEEDS[index]
+            self.mechanics.speed = speeds[index]
             self.mechanics.axis_speed = [None, None]
 
     def set_variable_speed(self, multiple: float, axis: int | None = None) -> None:
@@ -573,19 +596,33 @@ class MountModel:
     # ---------------------------------------------------------------- status and inspection
 
     def status(self) -> MountStatus:
-        """The ``:GU#`` flags, firmware variant applied."""
+        """The ``:GU#`` flags, firmware variant applied (``status_word``: the documents' letters, or
+        the 1.8.8 word, where parked or parking shows ``n`` alone, ``M`` is always there, ``P``
+        never, and the last digit says the state)."""
         mech = self.mechanics
         with self._lock:
             mech.advance()
             idle_home = mech.at_home_position() and not mech.moving()
             flag = self.firmware.home_flag
             at_home = idle_home and (flag == "always_at_home" or (flag == "after_home" and mech.home_flag))
-            return MountStatus(
-                tracking=mech.tracking,
-                slewing=mech.slew is not None or mech.braking(),
-                at_home=at_home,
-                mode=self.flash.mode_in_effect,
-            )
+            slewing = mech.slew is not None or mech.braking()
+            if self.firmware.status_word != "1.8.8":
+                return MountStatus(tracking=mech.tracking, slewing=slewing, at_home=at_home,
+                                   mode=self.flash.mode_in_effect)
+            parked = self.flash.persist.parked
+            return MountStatus(tracking=mech.tracking, slewing=slewing or parked, at_home=at_home,
+                               mode=self.flash.mode_in_effect, other_flags="M",
+                               digits="00000000" + self._state_digit(parked))
+
+    def _state_digit(self, parked: bool) -> str:
+        """The last digit of a 1.8.8 ``:GU#`` (eq-satrack am5/mock_mount.py L597-600, "real hardware
+        confirmed live"): 5 parked, 3 a manual move running, 1 tracking, 0 otherwise. Callers hold the lock."""
+        mech = self.mechanics
+        if parked:
+            return "5"
+        if any(move is not None for move in mech.moves):
+            return "3"
+        return "1" if mech.tracking else "0"
 
     def slewing(self) -> bool:
         """In the GOTO state: a slew, or a stopped slew still braking (what ``:GU#`` shows)."""

@@ -30,7 +30,7 @@ from typing import Any
 
 from .._exceptions import LinkError, LinkTimeout, ProtocolError
 from . import firmware, protocol
-from .wire_values import parse_dms
+from .wire_values import parse_dms, parse_hms
 
 __all__ = [
     "PRIVATE",
@@ -212,6 +212,26 @@ def _status_word(readings: Readings) -> frozenset[Any] | None:
     return frozenset({"1.8.8" if real else "documents"})
 
 
+def _hour_angle(readings: Readings) -> float | None:
+    """LST minus RA, hours in [-12, 12), from the :GS# and :GR# replies."""
+    lst, ra = _body(readings, "GS"), _body(readings, "GR")
+    try:
+        return None if lst is None or ra is None else (parse_hms(lst) - parse_hms(ra) + 12.0) % 24.0 - 12.0
+    except (ProtocolError, ValueError):
+        return None
+
+
+def _home_reading(readings: Readings) -> frozenset[Any] | None:
+    """At rest at home (Dec at the pole, hour angle ±6 h): ``N`` is the documents' reading, ``E``/``W``
+    the through-the-pole side real 1.8.8 mounts read (docs/firmware-evidence.md). Elsewhere: open."""
+    letter, dec, status, ha = _body(readings, "Gm"), _body(readings, "GD"), _status(readings), _hour_angle(readings)
+    if letter is None or dec not in ("+90*00:00", "-90*00:00") or status is None or "N" not in status[0]:
+        return None
+    if ha is None or abs(abs(ha) - 6.0) > 1.0 / 60.0:
+        return None
+    return frozenset({"documents"} if letter == "N" else {"through_pole"} if letter in ("E", "W") else set())
+
+
 #: Every switch with what decides it. A FirmwareVariant field without a row here fails
 #: tests/zwo/test_survey.py: a new switch must say how an owner's mount settles it, or why it cannot.
 #: Rows for switches this build's FirmwareVariant lacks (other branches add them) are ignored.
@@ -242,6 +262,12 @@ SWITCH_PROBES: tuple[SwitchProbe, ...] = (
                 "angles, which no read-only command gives; at home every build's letter is the same"),
     SwitchProbe("ns_moves", (), None, "a move north (:Mn#) on each pier side, which moves the mount"),
     SwitchProbe("site_in_flash", (), None, "a power cycle after setting the site (:St/:Sg), which changes it"),
+    SwitchProbe("home_reading", ("GU", "Gm", "GD", "GS", "GR"), _home_reading,
+                "the mount at rest at its home position (Dec at the pole, hour angle 6 h)"),
+    SwitchProbe("unknown_query", (), None, "an unknown query (:GW#), which the survey's fixed list leaves out"),
+    SwitchProbe("build_date", (), None, ":GVD#, which only some builds know (not in the fixed list)"),
+    SwitchProbe("jog_rates", (), None, "a timed move at :R3#/:R5#, which moves the mount"),
+    SwitchProbe("park_at_home", (), None, "sending :hP#, which parks the mount"),
 )
 
 
@@ -250,7 +276,8 @@ SWITCH_PROBES: tuple[SwitchProbe, ...] = (
 _CHOICES = {"home_flag": "HOME_FLAGS", "gt_mapping": "GT_MAPPINGS", "gps_reply": "GPS_REPLIES",
             "hp_reply": "HP_REPLIES", "gh_reply": "GH_REPLIES", "pier_letter": "PIER_LETTERS",
             "ns_moves": "NS_MOVES", "park_refusal": "PARK_REFUSALS", "hp_while_tracking": "HP_WHILE_TRACKING",
-            "status_word": "STATUS_WORDS"}
+            "status_word": "STATUS_WORDS", "unknown_query": "UNKNOWN_QUERIES", "home_reading": "HOME_READINGS",
+            "jog_rates": "JOG_RATES"}
 
 
 def _choices(switch: str) -> frozenset[Any] | None:

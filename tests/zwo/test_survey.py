@@ -148,7 +148,8 @@ def test_survey_sends_only_the_list_changes_nothing_and_names_the_preset(name: s
         settled += verdict.state == "settled"
         assert (verdict.state == "settled") == (len(verdict.values) == 1)
     assert {v.switch for v in report.verdicts() if v.state == "settled"} >= {"model", "version", "compile_time",
-                                                                              "gps_reply", "gmza_south_azimuth"}
+                                                                              "gps_reply", "gmza_south_azimuth",
+                                                                              "home_reading"}  # at home at power-up
 
 
 def test_a_tracking_mount_away_from_home_is_left_exactly_as_it_was(rigs: list[Rig]) -> None:
