@@ -163,6 +163,10 @@ class Telescope:
         self.connection.require_connected()
 
     def _require_unparked(self, what: str) -> None:
+        if self.motion.parked_by_mount:
+            raise Parked(f"{what} is not allowed while the mount is parked: it parked itself (its own park, "
+                         "set by the ZWO app, ASIAIR, a hand controller or another program, kept across power "
+                         "cycles); Unpark releases it")
         if self.motion.parked:
             raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
 
