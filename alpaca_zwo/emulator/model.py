@@ -277,6 +277,8 @@ class MountModel:
             mech.advance()
             if self.flash.mode_in_effect is not MountMode.EQUATORIAL:
                 return False
+            if mech.tracking and self.firmware.hp_while_tracking == "ignored":
+                return False  # AM5N 1.8.8: never moves, never parks (docs/firmware-evidence.md)
             p, s = self.flash.persist.custom_park or (PARK_P, PARK_S)
             self.flash.persist.parked = True
             mech.start_slew(Slew("park", mech.t, p, 0.0, s, abs(s) > 90.0))
@@ -289,6 +291,11 @@ class MountModel:
             was = self.flash.persist.parked
             self.flash.persist.parked = False
             return was
+
+    def parked(self) -> bool:
+        """Whether the park latch is set (parking or parked): it survives power cycles, it is in flash."""
+        with self._lock:
+            return self.flash.persist.parked
 
     def park_status(self) -> int:
         """0 not parked, 1 parking, 2 parked."""
@@ -544,19 +551,33 @@ class MountModel:
     # ---------------------------------------------------------------- status and inspection
 
     def status(self) -> MountStatus:
-        """The ``:GU#`` flags, firmware variant applied."""
+        """The ``:GU#`` flags, firmware variant applied (``status_word``: the documents' letters, or
+        the 1.8.8 word, where parked or parking shows ``n`` alone, ``M`` is always there, ``P``
+        never, and the last digit says the state)."""
         mech = self.mechanics
         with self._lock:
             mech.advance()
             idle_home = mech.at_home_position() and not mech.moving()
             flag = self.firmware.home_flag
             at_home = idle_home and (flag == "always_at_home" or (flag == "after_home" and mech.home_flag))
-            return MountStatus(
-                tracking=mech.tracking,
-                slewing=mech.slew is not None or mech.braking(),
-                at_home=at_home,
-                mode=self.flash.mode_in_effect,
-            )
+            slewing = mech.slew is not None or mech.braking()
+            if self.firmware.status_word != "1.8.8":
+                return MountStatus(tracking=mech.tracking, slewing=slewing, at_home=at_home,
+                                   mode=self.flash.mode_in_effect)
+            parked = self.flash.persist.parked
+            return MountStatus(tracking=mech.tracking, slewing=slewing or parked, at_home=at_home,
+                               mode=self.flash.mode_in_effect, other_flags="M",
+                               digits="00000000" + self._state_digit(parked))
+
+    def _state_digit(self, parked: bool) -> str:
+        """The last digit of a 1.8.8 ``:GU#`` (eq-satrack am5/mock_mount.py L597-600, "real hardware
+        confirmed live"): 5 parked, 3 a manual move running, 1 tracking, 0 otherwise. Callers hold the lock."""
+        mech = self.mechanics
+        if parked:
+            return "5"
+        if any(move is not None for move in mech.moves):
+            return "3"
+        return "1" if mech.tracking else "0"
 
     def slewing(self) -> bool:
         """In the GOTO state: a slew, or a stopped slew still braking (what ``:GU#`` shows)."""

@@ -15,7 +15,7 @@ from datetime import date, datetime, time
 
 from ..zwo import dispatch, wire_values
 from ..zwo.dispatch import Verbatim
-from ..zwo.firmware import has_feature
+from ..zwo.firmware import PARKED_REFUSED, has_feature
 from ..zwo.protocol import CommandMatch, TrackingState
 from ..zwo.wire_values import Direction, MeridianSettings, MountMode, MountStatus, TrackRate
 from .model import MountModel
@@ -26,6 +26,13 @@ _log = logging.getLogger(__name__)
 
 #: What firmware answers a command it does not know: nothing (field notes §2.9).
 _UNKNOWN = Verbatim(None)
+#: What a parked 1.8.8 mount answers a motion command (docs/firmware-evidence.md).
+_PARKED = Verbatim("e14#")
+
+
+def _parked_refuses(body: str) -> bool:
+    """Whether ``body`` is one of the commands a parked 1.8.8 mount refuses (``Mg…``: every pulse)."""
+    return body in PARKED_REFUSED or body.startswith("Mg")
 
 
 class ModelBackend:
@@ -45,6 +52,14 @@ class ModelBackend:
             return _UNKNOWN
         if code == "STR" and not firmware.custom_tracking:
             return _UNKNOWN
+        return None
+
+    def firmware_reply(self, body: str) -> Verbatim | None:
+        """What this build answers before the command table is consulted, known command or not:
+        a parked 1.8.8 mount refuses the whole motion class with ``e14#``, even the commands that
+        are otherwise silent or unknown to the table (:hU#, :I#, :PO#…; docs/firmware-evidence.md)."""
+        if self.model.firmware.park_refusal == "e14" and _parked_refuses(body) and self.model.parked():
+            return _PARKED
         return None
 
     # ---------------------------------------------------------------- date, time, site
@@ -280,6 +295,9 @@ class ModelResponder:
     def handle(self, body: str) -> str | None:
         """The reply text for ``body``, or None when the mount sends nothing back."""
         try:
+            own = self.backend.firmware_reply(body)
+            if own is not None:
+                return own.reply
             return dispatch.answer(self.backend, body)
         except Exception:  # a bug here must not take the line down; the mount just says nothing
             _log.exception("responder failed on :%s#", body)

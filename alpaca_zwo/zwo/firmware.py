@@ -25,10 +25,14 @@ __all__ = [
     "GT_MAPPINGS",
     "HOME_FLAGS",
     "HP_REPLIES",
+    "HP_WHILE_TRACKING",
     "MODELS",
     "NS_MOVES",
+    "PARKED_REFUSED",
+    "PARK_REFUSALS",
     "PIER_LETTERS",
     "PRESETS",
+    "STATUS_WORDS",
     "FirmwareVariant",
     "has_feature",
     "preset",
@@ -48,6 +52,22 @@ PIER_LETTERS = ("pointing_state", "mechanical", "hour_angle")
 #: What ``:Mn#``/``:Mgn`` move (docs/southern.md): toward the sky's north on either pier side, or one
 #: way of the Dec axis (north on pierEast, south on pierWest).
 NS_MOVES = ("sky", "mechanical")
+#: How a parked mount refuses motion: as the vendor documents let the emulator guess (a GOTO's
+#: ``e4#``, a bare ``0`` to ``:Te#``, silence from the fire-and-forget commands), or as an AM5N on
+#: 1.8.8 did on the wire: ``e14#`` to every command of :data:`PARKED_REFUSED` (docs/firmware-evidence.md).
+PARK_REFUSALS = ("documents", "e14")
+#: What ``:hP#`` does while tracking: parks (the documents), or is silently ignored (AM5N 1.8.8).
+HP_WHILE_TRACKING = ("parks", "ignored")
+#: The shape of ``:GU#``: the documents' letters (``P`` when parked) with a zero numeric tail, or
+#: the 1.8.8 word: an ``M`` letter, no ``P``, parked or parking shows ``n`` alone, and the last digit
+#: says the state (5 parked, 3 a manual move, 1 tracking, 0 otherwise).
+STATUS_WORDS = ("documents", "1.8.8")
+#: The request bodies a parked 1.8.8 mount answered ``e14#`` (``Mg`` stands for every pulse):
+#: S1 (epim/astrodeck docs/hardware/zwo-am5-lx200-protocol.md) lists :MS# :Te# :TQ# :Mg*# :Ms# and
+#: :hR# :hU# :hN# :hF# :hW# :hS# :hP# :I# :PO# :MP#; :Mn#/:Me#/:Mw# (the rest of the move class)
+#: and :hC# (S2: "no motion after :hP#", reply not quoted) are the safe reading: refused alike.
+PARKED_REFUSED = ("MS", "Te", "TQ", "Mg", "Mn", "Ms", "Me", "Mw", "hC", "hP", "hR", "hU", "hN", "hF",
+                  "hW", "hS", "I", "PO", "MP")
 
 #: The firmware version from which a feature exists (field notes §5.6): the one table both the
 #: driver (what it may send) and the emulator (what it answers) read.
@@ -102,6 +122,11 @@ class FirmwareVariant:
     #: start) comes back, as an AM5N on 1.6.3 read Suzhou at power-up; True, the last :St/:Sg are
     #: kept, as the NVS keys "latitude"/"longitude" of the 1.8.8 firmware suggest (docs/southern.md).
     site_in_flash: bool = False
+    #: The firmware's own park as real 1.8.8 mounts showed it (docs/firmware-evidence.md): how a
+    #: parked mount refuses motion, whether :hP# parks while tracking, what :GU# looks like.
+    park_refusal: str = "documents"  # documents | e14
+    hp_while_tracking: str = "parks"  # parks | ignored
+    status_word: str = "documents"  # documents | 1.8.8
     name: str = "custom"  # the preset this came from ("custom" when built by hand)
     description: str = ""  # where this build's behaviour was seen
 
@@ -118,6 +143,9 @@ class FirmwareVariant:
             "gh_reply": GH_REPLIES,
             "pier_letter": PIER_LETTERS,
             "ns_moves": NS_MOVES,
+            "park_refusal": PARK_REFUSALS,
+            "hp_while_tracking": HP_WHILE_TRACKING,
+            "status_word": STATUS_WORDS,
         }
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
@@ -144,6 +172,11 @@ def _preset(name: str, description: str, **switches: Any) -> FirmwareVariant:
     return FirmwareVariant(name=name, description=description, **switches)
 
 
+#: What the 1.8.8 transcripts show (docs/firmware-evidence.md): :hP# answers nothing (S1's byte-level
+#: capture; S2's unverified "1#/0#" stays a switch, ``hp_reply``), the firmware's own park.
+_REAL_1_8_8: dict[str, Any] = {"hp_reply": None, "park_refusal": "e14", "hp_while_tracking": "ignored",
+                               "status_word": "1.8.8"}
+
 #: Named builds, the first the default. Each quirk cites where it was seen (field notes §0 keys).
 PRESETS: dict[str, FirmwareVariant] = {
     variant.name: variant
@@ -151,8 +184,10 @@ PRESETS: dict[str, FirmwareVariant] = {
         _preset("am5-1.9.2", "current AM5 firmware: H after a home, :hP# silent, :Gh# empty"),
         _preset("am5n-1.6.3", "AM5N on 1.6.3: no H even at home, :GMZA# azimuth from south (AM5N notes)",
                 model="AM5N", version="1.6.3", home_flag="never", gmza_south_azimuth=True),
-        _preset("am5-1.8.8", "AM5 on 1.8.8 as PYAM5 saw it: :hP# answers 1#/0#",
-                version="1.8.8", hp_reply="1#"),
+        _preset("am5-1.8.8", "AM5 on 1.8.8 as recorded on the wire (docs/firmware-evidence.md)",
+                version="1.8.8", compile_time="14:01:29", **_REAL_1_8_8),
+        _preset("am5n-1.8.8", "AM5N on 1.8.8 as recorded on the wire (docs/firmware-evidence.md)",
+                model="AM5N", version="1.8.8", compile_time="14:01:29", **_REAL_1_8_8),
         _preset("am5-x2", "builds seen by X2: H at power-up, :Gps# empty, :Gh# 0 even after homing",
                 home_flag="always_at_home", gps_reply="empty", gh_reply="zero"),
         _preset("am3-1.6.3", "AM3 reporting 1.6.3", model="AM3", version="1.6.3"),
