@@ -24,7 +24,7 @@ from datetime import datetime, timedelta, timezone
 from typing import Any
 
 from .. import sky
-from .._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
+from .._exceptions import AlpacaZwoError, LinkError, LinkTimeout, MountReplyError, ProtocolError
 from ..sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S, PierSide
 from ..zwo import protocol, wire_values
 from ..zwo.link import Link, Priority
@@ -663,9 +663,26 @@ class Mount:
 
     def set_tracking(self, on: bool, guard: Guard | None = None, not_before: float | None = None) -> None:
         """Switch tracking; ``not_before`` (a time.monotonic() instant) times the command exactly."""
-        self.link.execute(protocol.query("Te" if on else "Td"), Priority.COMMAND, guard=guard, not_before=not_before)
+        req = protocol.query("Te" if on else "Td")
+        try:
+            self.link.execute(req, Priority.COMMAND, guard=guard, not_before=not_before)
+        except LinkTimeout as exc:
+            self._confirm_tracking(req, on, exc)
         self._changed(tracking=TrackingState(on))
         self._rate_changed()
+
+    def _confirm_tracking(self, req: protocol.Request, on: bool, exc: LinkTimeout) -> None:
+        """A busy mount answers ``:Te#``/``:Td#`` late or never (a real 1.8.8 mount left ``:Te#``
+        unanswered for 1.5 s during a GOTO: real-transcripts-1.8.8.md §2 item 8): what it reports
+        decides, read back at once. The link keeps the late byte from being read as a later reply."""
+        tracking = self._exec(protocol.query("GAT"))
+        if tracking.on != on:
+            state = "on" if tracking.on else "off"
+            why = (f"no acknowledgement in time ({exc}), and the mount still reports tracking {state}; it may be "
+                   "busy with a slew: try again once it ends")
+            raise MountReplyError(req.text, "", None, why) from exc
+        log.info("%s: no acknowledgement in time, but the mount reports tracking %s: done", req.text,
+                 "on" if on else "off")
 
     def set_tracking_rate(self, rate: TrackRate) -> None:
         self._exec(protocol.set_tracking_rate(rate))

@@ -18,6 +18,8 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 __all__ = [
+    "ACKS_HELD_WHILE_SLEWING",
+    "ACK_WHILE_SLEWING",
     "DEFAULT_PRESET",
     "FEATURES_SINCE",
     "GH_REPLIES",
@@ -68,6 +70,18 @@ STATUS_WORDS = ("documents", "1.8.8")
 #: and :hC# (S2: "no motion after :hP#", reply not quoted) are the safe reading: refused alike.
 PARKED_REFUSED = ("MS", "Te", "TQ", "Mg", "Mn", "Ms", "Me", "Mw", "hC", "hP", "hR", "hU", "hN", "hF",
                   "hW", "hS", "I", "PO", "MP")
+
+#: What a busy mount does with an acknowledgement (:data:`ACKS_HELD_WHILE_SLEWING`) asked for while a
+#: GOTO, home or park slew runs or brakes: answers at once (the documents), answers once the slew has
+#: ended, or never answers. An AM5N on 1.8.8 left ``:Te#`` (and ``:Td#`` right after ``:Q#``) unanswered
+#: for the whole 1.5 s its driver waited (epim/astrodeck server/astrodeck/devices/backends/zwo_am5.py,
+#: the ``_link_error`` docstring; real-transcripts-1.8.8.md §2 item 8). Whether the byte came later
+#: is not recorded, so both readings are switches; the 1.8.8 presets answer late, the case that tests
+#: a client hardest (a stray byte arriving in the middle of later exchanges). The command itself takes
+#: effect when it arrives, as the position reads that kept working during slews suggest.
+ACK_WHILE_SLEWING = ("prompt", "late", "never")
+#: The acknowledgements a slewing 1.8.8 mount was seen to hold back (the evidence names only these).
+ACKS_HELD_WHILE_SLEWING = ("Te", "Td")
 
 #: The firmware version from which a feature exists (field notes §5.6): the one table both the
 #: driver (what it may send) and the emulator (what it answers) read.
@@ -127,6 +141,7 @@ class FirmwareVariant:
     park_refusal: str = "documents"  # documents | e14
     hp_while_tracking: str = "parks"  # parks | ignored
     status_word: str = "documents"  # documents | 1.8.8
+    ack_while_slewing: str = "prompt"  # prompt | late | never (ACK_WHILE_SLEWING)
     name: str = "custom"  # the preset this came from ("custom" when built by hand)
     description: str = ""  # where this build's behaviour was seen
 
@@ -146,6 +161,7 @@ class FirmwareVariant:
             "park_refusal": PARK_REFUSALS,
             "hp_while_tracking": HP_WHILE_TRACKING,
             "status_word": STATUS_WORDS,
+            "ack_while_slewing": ACK_WHILE_SLEWING,
         }
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
@@ -175,7 +191,7 @@ def _preset(name: str, description: str, **switches: Any) -> FirmwareVariant:
 #: What the 1.8.8 transcripts show (docs/firmware-evidence.md): :hP# answers nothing (S1's byte-level
 #: capture; S2's unverified "1#/0#" stays a switch, ``hp_reply``), the firmware's own park.
 _REAL_1_8_8: dict[str, Any] = {"hp_reply": None, "park_refusal": "e14", "hp_while_tracking": "ignored",
-                               "status_word": "1.8.8"}
+                               "status_word": "1.8.8", "ack_while_slewing": "late"}
 
 #: Named builds, the first the default. Each quirk cites where it was seen (field notes §0 keys).
 PRESETS: dict[str, FirmwareVariant] = {
