@@ -34,6 +34,7 @@ from .._exceptions import (
     InvalidOperation,
     InvalidValue,
     MemberNotImplemented,
+    MountReplyError,
     Parked,
     mount_errors,
 )
@@ -355,8 +356,8 @@ class Telescope:
         self._check_goto(ra, dec)
         try:
             return self.flips.goto(ra, dec, self._keep_east_setting(ra))
-        except DriverError as exc:
-            if exc.number == ERR_MOUNT_REFUSED:  # e5#/e6#: its limits may have changed over WiFi since read
+        except AlpacaError as exc:
+            if isinstance(exc.__cause__, MountReplyError):  # e5#/e6#: its limits may have changed over WiFi
                 self.mount.settings_cache.mark_stale()
             raise
 
