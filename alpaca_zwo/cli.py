@@ -19,6 +19,7 @@ from .config.store import SettingsStore
 from .server import AlpacaZwoServer, Overrides
 from .service import KINDS, render
 from .zwo.devices import DeviceError, check_device, find_mount, format_candidates, list_candidates
+from .zwo.firmware import DEFAULT_PRESET, PRESETS
 
 log = logging.getLogger("alpaca_zwo")
 
@@ -55,6 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--emulator-mode", choices=("eq", "altaz"),
                         help="start the built-in emulator in equatorial or alt-az mode (default from the config "
                              "file: eq)")
+    parser.add_argument("--emulator-preset", choices=list(PRESETS), metavar="NAME",
+                        help="the firmware build the built-in emulator answers as, for this run only (default "
+                             f"from the config file: {DEFAULT_PRESET}): {', '.join(PRESETS)}; am5-1.8.8 and "
+                             "am5n-1.8.8 answer as real mounts were recorded (docs/firmware-evidence.md)")
     parser.add_argument("--zwo-port", type=int, metavar="N",
                         help="serve the mount's own ZWO protocol on TCP port N for INDI and other ZWO/LX200 "
                              "drivers (like the mount's WiFi port 4030), shared with Alpaca; for this run only")
@@ -186,6 +191,7 @@ def server_main(argv: list[str] | None = None) -> int:
     overrides = Overrides(host=args.host, port=args.port, discovery_port=args.discovery_port,
                           device_url=args.device, mdns=args.mdns, emulator_speed=args.emulator_speed,
                           emulator_baud=args.emulator_baud, emulator_mode=args.emulator_mode,
+                          emulator_preset=args.emulator_preset,
                           stellarium_port=args.stellarium_port,
                           zwo_port=args.zwo_port)
     from .web import setup_routes

@@ -25,10 +25,16 @@ from ..zwo.firmware import (
     GPS_REPLIES,
     GT_MAPPINGS,
     HOME_FLAGS,
+    HOME_READINGS,
+    HP_WHILE_TRACKING,
+    JOG_RATES,
     MODELS,
     NS_MOVES,
+    PARK_REFUSALS,
     PIER_LETTERS,
     PRESETS,
+    STATUS_WORDS,
+    UNKNOWN_QUERIES,
     FirmwareVariant,
     preset,
 )
@@ -112,11 +118,20 @@ def build_parser() -> argparse.ArgumentParser:
                     help=":Gm# names the pointing state, the axes' state as in the north, or the hour angle's side")
     fw.add_argument("--ns-moves", choices=NS_MOVES,
                     help=":Mn#/:Mgn move toward the sky's north, or one way of the Dec axis")
+    for flag, choices, text in (
+            ("--park-refusal", PARK_REFUSALS, "a parked mount refuses motion as documented, or with e14# (1.8.8)"),
+            ("--hp-while-tracking", HP_WHILE_TRACKING, ":hP# parks while tracking, or is ignored (1.8.8)"),
+            ("--status-word", STATUS_WORDS, ":GU# as documented, or the 1.8.8 word (M, state digit)"),
+            ("--unknown-query", UNKNOWN_QUERIES, "an unknown :G..# is silent, or answers # (1.8.8)"),
+            ("--home-reading", HOME_READINGS, "home reads N and HA -6 h, or E and +6 h (1.8.8)"),
+            ("--jog-rates", JOG_RATES, ":R1#-:R7# as documented, or as measured on an AM5N")):
+        fw.add_argument(flag, choices=choices, help=text)
     for flag, text in (("--compound-goto-sync", ":SMeq/:SMMC work as documented (real firmware answers e2#)"),
                        ("--custom-tracking", ":STRnn# custom rate works (real: no reply)"),
                        ("--gmza-south-azimuth", ":GMZA# azimuth measured from south"),
                        ("--goto-flip-at-meridian", "a GOTO flips at the meridian, not past the track-past limit"),
-                       ("--site-in-flash", "a site set by :St/:Sg is kept across a power cycle")):
+                       ("--site-in-flash", "a site set by :St/:Sg is kept across a power cycle"),
+                       ("--park-at-home", ":hP# goes home, not to the factory park")):
         fw.add_argument(flag, action="store_const", const=True, help=text)
 
     parser.add_argument("--log-level", default="WARNING", help="DEBUG, INFO, WARNING (default) or ERROR")
@@ -127,7 +142,8 @@ def firmware_from_args(args: argparse.Namespace) -> FirmwareVariant:
     """The chosen preset with the switches given on the command line changed."""
     switches = {name: getattr(args, name) for name in (
         "model", "home_flag", "gt_mapping", "gps_reply", "gh_reply", "compound_goto_sync", "custom_tracking",
-        "gmza_south_azimuth", "goto_flip_at_meridian", "pier_letter", "ns_moves", "site_in_flash")}
+        "gmza_south_azimuth", "goto_flip_at_meridian", "pier_letter", "ns_moves", "site_in_flash", "park_refusal",
+        "hp_while_tracking", "status_word", "unknown_query", "home_reading", "jog_rates", "park_at_home")}
     switches["version"] = args.firmware
     overrides = {name: value for name, value in switches.items() if value is not None}
     if args.hp_reply is not None:  # "none" is a value of its own: the :hP# that answers nothing

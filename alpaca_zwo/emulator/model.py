@@ -50,7 +50,7 @@ from typing import Any
 
 from .. import sky
 from ..sky import SIDEREAL_DEG_S
-from ..zwo.firmware import FirmwareVariant
+from ..zwo.firmware import MEASURED_JOG_SPEEDS, FirmwareVariant
 from ..zwo.wire_values import SLEW_SPEEDS, MountMode, MountStatus
 from .altaz import AltAzRules
 from .clock import Clock
@@ -165,10 +165,21 @@ class MountModel:
     # ---------------------------------------------------------------- position, target
 
     def position(self) -> tuple[float, float]:
-        """(RA hours, Dec degrees) the mount reports, alignment offsets included."""
+        """(RA hours, Dec degrees) the mount reports, alignment offsets included; at home, on firmware
+        that counts home as the through-the-pole side, the hour angle of that side (+6 h in the north)."""
+        mech = self.mechanics
         with self._lock:
-            self.mechanics.advance()
-            return self.mechanics.reported()
+            mech.advance()
+            ra, dec = mech.reported()
+            if self._home_through_pole():
+                ra = sky.wrap_hours_24(ra + 12.0)
+            return ra, dec
+
+    def _home_through_pole(self) -> bool:
+        """At the home position on firmware that reads it as the through-the-pole side (``home_reading``,
+        AM5N 1.8.8: ``E`` and hour angle +6 h). Callers hold the lock and have advanced the mechanics."""
+        mech = self.mechanics
+        return self.firmware.home_reading == "through_pole" and not mech.altaz() and mech.at_home_position()
 
     def horizontal(self) -> tuple[float, float]:
         """(altitude, azimuth from north) of the reported position, at the mount's site and LST."""
@@ -193,6 +204,8 @@ class MountModel:
         mech = self.mechanics
         with self._lock:
             mech.advance()
+            if self._home_through_pole():
+                return "W" if mech.hemisphere().side(True) is sky.PierSide.WEST else "E"
             if mech.at_home_position():
                 return "N"
             rule = self.firmware.pier_letter
@@ -246,7 +259,8 @@ class MountModel:
                 mech.start_slew(self.altaz_rules.goto(raw_ha, raw_dec))
                 return 0
             hemisphere = mech.hemisphere()
-            side = sky.goto_pier_side(raw_ha, mech.side(), self._goto_limit_deg())
+            current = hemisphere.side(True) if self._home_through_pole() else mech.side()  # the side :Gm# names
+            side = sky.goto_pier_side(raw_ha, current, self._goto_limit_deg())
             p, s = hemisphere.axes(raw_ha, raw_dec, side)
             mech.start_slew(Slew("goto", mech.t, p, hemisphere.primary_rate(SIDEREAL_DEG_S), s,
                                  hemisphere.outer(side)))
@@ -279,7 +293,8 @@ class MountModel:
                 return False
             if mech.tracking and self.firmware.hp_while_tracking == "ignored":
                 return False  # AM5N 1.8.8: never moves, never parks (docs/firmware-evidence.md)
-            p, s = self.flash.persist.custom_park or (PARK_P, PARK_S)
+            factory = (HOME_P, HOME_S) if self.firmware.park_at_home else (PARK_P, PARK_S)
+            p, s = self.flash.persist.custom_park or factory
             self.flash.persist.parked = True
             mech.start_slew(Slew("park", mech.t, p, 0.0, s, abs(s) > 90.0))
             return True
@@ -356,8 +371,9 @@ class MountModel:
 
     def select_speed(self, index: int) -> None:
         """``:Rn#`` (and ``:RG/:RC/:RM/:RS``): fixed speed for both axes, latched by ``:M?#``."""
+        speeds = MEASURED_JOG_SPEEDS if self.firmware.jog_rates == "measured" else SLEW_SPEEDS
         with self._lock:
-            self.mechanics.speed = SLEW_SPEEDS[index]
+            self.mechanics.speed = speeds[index]
             self.mechanics.axis_speed = [None, None]
 
     def set_variable_speed(self, multiple: float, axis: int | None = None) -> None:

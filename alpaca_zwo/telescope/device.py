@@ -65,6 +65,10 @@ LINGER_S = 60.0
 LINK_GRACE_S = 30.0
 #: How far the axes turn in a pier flip (SideOfPier write), for when it lands.
 FLIP_TRAVEL_DEG = 180.0
+#: The home pose read from the position (``_home_pose``): Dec this close to the pole (degrees; the mount
+#: prints whole arcseconds) and the hour angle this close to ±6 h (hours: a minute of time, 0.25°).
+HOME_DEC_TOLERANCE_DEG = 1.0 / 60.0
+HOME_HA_TOLERANCE_H = 1.0 / 60.0
 GUIDE_DIRECTIONS = {0: Direction.NORTH, 1: Direction.SOUTH, 2: Direction.EAST, 3: Direction.WEST}
 
 
@@ -231,7 +235,19 @@ class Telescope:
         state = self._state()
         if self.motion.slewing(state):
             return False
-        return state.pier == "N" or bool(state.status and state.status.at_home)
+        return state.pier == "N" or bool(state.status and state.status.at_home) or self._home_pose(state)
+
+    def _home_pose(self, state: MountState) -> bool:
+        """At rest at the pole with the counterweight down (hour angle ±6 h): the home position, whatever
+        the firmware calls it. The documents' firmware reads ``N`` and −6 h there (north), real 1.8.8 mounts
+        ``E`` and +6 h, with no ``H`` (docs/firmware-evidence.md); both are this one pose."""
+        if self._altaz_mode() or state.moving_axes or (state.tracking is not None and state.tracking.on):
+            return False
+        ra, dec = self._position()
+        if 90.0 - abs(dec) > HOME_DEC_TOLERANCE_DEG:
+            return False
+        ha = self.mount.mechanical_hour_angle(ra)
+        return abs(abs(sky.wrap_hours_12(ha)) - 6.0) < HOME_HA_TOLERANCE_H
 
     def slewing(self) -> bool:
         self.connection.require_connected()

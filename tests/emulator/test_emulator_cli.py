@@ -108,6 +108,21 @@ def test_cli_preset_sets_model_version_and_quirks(start_emulator: type[EmulatorP
     assert emulator.terminate() == 0
 
 
+def test_cli_1_8_8_switches_override_a_preset(start_emulator: type[EmulatorProcess]) -> None:
+    """The 1.8.8 preset with one switch turned back: the others keep answering as recorded."""
+    emulator = start_emulator("--baud", "0", "--preset", "am5n-1.8.8", "--home-reading", "documents",
+                              "--unknown-query", "silent")
+    client = MountClient(emulator.port(), compile_time="14:01:29")
+    try:
+        assert client.ask(":GVP#") == "AM5N#"
+        assert client.ask(":Gm#") == "N#"  # --home-reading documents
+        assert client.exact(":GW#") == ""  # --unknown-query silent
+        assert client.ask(":GU#") == "nNGM000000000#"  # the preset's status word is kept
+    finally:
+        client.close()
+    assert emulator.terminate() == 0
+
+
 def test_cli_pty_option_prints_a_usable_device(start_emulator: type[EmulatorProcess]) -> None:
     serial = pytest.importorskip("serial")
     emulator = start_emulator("--pty", "--baud", "0")

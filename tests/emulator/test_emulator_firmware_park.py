@@ -11,7 +11,7 @@ import pytest
 
 from alpaca_zwo.emulator import EmulatorServer, FirmwareVariant, ManualClock, MountModel
 from alpaca_zwo.zwo.firmware import PARKED_REFUSED, preset
-from tests.emulator.emuclient import MountClient, initialize, target_at
+from tests.emulator.emuclient import MountClient, initialize, slew, target_at
 from tests.support.wait import wait_until
 
 REAL = [preset("am5-1.8.8"), preset("am5n-1.8.8")]
@@ -47,9 +47,12 @@ def test_parked_mount_refuses_motion_with_e14_until_spu(
     initialize(mount, clock)
     assert mount.ask(":GU#") == "nNGM000000000#"  # idle, unparked (S1 ASIMount trace after :Spu#)
     assert mount.exact(":Spu#") == "0"  # nothing to cancel
+    slew(mount, clock, target_at(model, -2.0), 40.0)
+    assert mount.exact(":Td#") == "1"
     seconds = park(mount, clock)
-    assert 1.0 < seconds < 60.0
+    assert 5.0 < seconds < 60.0  # the real park took ~12-15 s (S1)
     assert mount.ask(":GU#") == "nGM000000005#"
+    assert (mount.ask(":GD#"), mount.ask(":Gm#"), mount.ask(":GZ#")) == ("+90*00:00#", "E#", "360*00:00#")
     ra = target_at(model, -2.0)
     assert mount.exact(f":Sr{int(ra):02d}:00:00#") == "1"  # setting a target is not motion
     assert mount.exact(":Sd+30*00:00#") == "1"
