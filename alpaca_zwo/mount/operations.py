@@ -820,10 +820,17 @@ class Mount:
         """``:Gps#`` when the mount may hold its own park: the status word shows it, or the mount is not
         tracking (a parked mount never tracks, so a tracking one costs no extra byte). Another program
         may park it at any time (the ZWO app, ASIAIR, the hand controller): the default firmware shows
-        that only here. Firmware that answers an empty ``#`` is not asked again on this link."""
-        if self._park_unreadable == self.link.generation or (status.tracking and not status.parked):
+        that only here. Firmware older than the park, or that answers an empty ``#`` or nothing, is not
+        asked again on this link."""
+        info = self._state.info
+        if (self._park_unreadable == self.link.generation or (info is not None and not info.has_park)
+                or (status.tracking and not status.parked)):
             return None
-        park: int | None = self._exec(protocol.query("Gps"), Priority.POLL)
+        park: int | None = None
+        try:
+            park = self._exec(protocol.query("Gps"), Priority.POLL)
+        except LinkTimeout:
+            log.info(":Gps# unanswered: the mount's own park is read from its status word only")
         if park is None:
             self._park_unreadable = self.link.generation
         return park

@@ -30,6 +30,11 @@ class MountInfo:
     def has_meridian_settings(self) -> bool:
         return has_feature(self.firmware, "meridian_settings")
 
+    @property
+    def has_park(self) -> bool:
+        """The firmware's own park (``:hP#``, ``:Gps#``, ``:Spu#``) exists: from 1.1.9 (INDI)."""
+        return has_feature(self.firmware, "park")
+
 
 @dataclass(frozen=True)
 class MountSettings:
