@@ -560,7 +560,8 @@ class Link:
                     # drain after the probe still proves nothing else follows.
                     self._settle_owed(bytes(data[: len(data) - len(self._probe_reply)]))
                     return self._probe_reply
-                data.clear()  # a stale reply; keep reading for ours
+                self._settle_owed(bytes(data))  # a stale reply (a late 'eN#' is recorded as such)
+                data.clear()  # keep reading for ours
         raise LinkTimeout("probe reply did not arrive")
 
     # -- connection management ---------------------------------------------------------------
