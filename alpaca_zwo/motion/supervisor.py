@@ -483,10 +483,10 @@ class MotionSupervisor:
             raise self.interlock.refusal("Tracking=true") from exc
 
     def unpark(self) -> None:
-        """Unpark: the mount may move again, so the gate must allow it. A park the mount holds itself
-        is released with ``:Spu#`` and answered only once the mount confirms it (Mount.release_park)."""
+        """Unpark: the mount may move again, so the gate must allow it. A park the mount holds itself (or is
+        still making) is released with ``:Spu#`` and answered only once the mount confirms it (Mount.release_park)."""
         self.interlock.require("Unpark")
-        if self.mount.state.parked_by_mount:
+        if self.mount.state.park_latched:
             with mount_errors("Unpark"):
                 self.mount.release_park()
         with self._lock:

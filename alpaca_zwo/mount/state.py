@@ -15,8 +15,8 @@ from ..zwo.link import LinkStatus
 from ..zwo.protocol import TrackingState
 from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, TrackRate
 
-#: ``:Gps#``'s "parked" (0 not parked, 1 parking, 2 parked, 3 park error).
-PARKED = 2
+#: ``:Gps#``'s "parking" and "parked" (0 not parked, 1 parking, 2 parked, 3 park error).
+PARKING, PARKED = 1, 2
 
 
 @dataclass(frozen=True)
@@ -91,6 +91,11 @@ class MountState:
         if self.park is not None:
             return self.park == PARKED
         return bool(self.status and self.status.parked)
+
+    @property
+    def park_latched(self) -> bool:
+        """The mount's own park is latched, parked or still on its way (``:Gps#`` 1): what Unpark releases."""
+        return self.parked_by_mount or self.park == PARKING
 
     @property
     def goto_running(self) -> bool:
