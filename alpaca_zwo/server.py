@@ -47,7 +47,7 @@ class Overrides:
     emulator_speed: float | None = None
     emulator_baud: int | None = None
     emulator_mode: str | None = None  # --emulator-mode eq|altaz
-    emulator_preset: str | None = None  # --emulator-preset NAME: the built-in emulator's firmware build
+    emulator_preset: str | None = None  # --emulator-preset NAME: the built-in emulator's firmware (zwo/firmware.py)
     stellarium_port: int | None = None  # --stellarium-port N: Stellarium's telescope server on N
     zwo_port: int | None = None  # --zwo-port N: serve the shared ZWO-protocol port on N for this run
 
@@ -57,8 +57,8 @@ class EmbeddedEmulator:
 
     def __init__(self, settings: Settings, speed: float, baud: int, mode: str | None = None,
                  preset_name: str | None = None) -> None:
-        """``mode`` and ``preset_name`` override the config's ``[emulator] mode`` and ``preset`` for this run."""
         from .emulator import EmulatorServer, MountModel, ScaledClock, preset
+        from .emulator.imperfection import Imperfection
         from .zwo.wire_values import MountMode
 
         self.clock = ScaledClock(speed=speed)
@@ -66,7 +66,9 @@ class EmbeddedEmulator:
         overrides = {"model": config.model, "version": config.firmware}
         firmware = preset(preset_name or config.preset, **{key: value for key, value in overrides.items() if value})
         altaz = (mode or config.mode) == "altaz"
-        self.model = MountModel(self.clock, firmware=firmware, mode=MountMode.ALTAZ if altaz else MountMode.EQUATORIAL)
+        imperfection = Imperfection.of(config.pointing_errors, config.pointing_noise, config.pointing_seed)
+        self.model = MountModel(self.clock, firmware=firmware, mode=MountMode.ALTAZ if altaz else MountMode.EQUATORIAL,
+                                imperfection=imperfection)
         self.server = EmulatorServer(self.model, host="127.0.0.1", port=0, baud=baud)
         self.server.start()
         self.url = f"socket://127.0.0.1:{self.server.port}"

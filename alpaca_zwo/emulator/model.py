@@ -57,6 +57,7 @@ from .clock import Clock
 from .clocksite import ClockAndSite
 from .faults import FaultEvent, Faults
 from .flash import FlashSettings
+from .imperfection import Imperfection
 from .physics import Mechanics
 from .state import (
     ACCEL_DEG_S2,
@@ -108,10 +109,12 @@ class MountModel:
         faults: Faults | None = None,
         accel: float = ACCEL_DEG_S2,
         mode: MountMode = MountMode.EQUATORIAL,
+        imperfection: Imperfection | None = None,
     ) -> None:
         """``site`` is the (latitude, east longitude) stored in the mount, returned after every
         power-up; ``initialized`` starts as if a client had already set date, time and site;
-        ``mode`` is the mount mode in flash (as if ``:AA#``/``:AP#`` and a restart had happened)."""
+        ``mode`` is the mount mode in flash (as if ``:AA#``/``:AP#`` and a restart had happened);
+        ``imperfection`` its mechanical errors (``imperfection.py``; default: a perfect mount)."""
         self._lock = threading.RLock()
         self._clock = clock
         self.firmware = firmware if firmware is not None else FirmwareVariant()
@@ -124,7 +127,8 @@ class MountModel:
         start = clock.seconds()
         self.flash = FlashSettings(persist=persist, firmware=self.firmware, lock=self._lock, advance=self._advance)
         self.clock_site = ClockAndSite(flash=self.flash, lock=self._lock, advance=self._advance, t=start)
-        self.mechanics = Mechanics(clock=clock, accel=accel, flash=self.flash, site=self.clock_site, t=start)
+        self.mechanics = Mechanics(clock=clock, accel=accel, flash=self.flash, site=self.clock_site, t=start,
+                                   imperfection=imperfection if imperfection is not None else Imperfection())
         self.altaz_rules = AltAzRules(mechanics=self.mechanics, site=self.clock_site, flash=self.flash)
         self.faults.add_listener(self._on_fault)
         if initialized:
@@ -188,6 +192,31 @@ class MountModel:
             mech.advance()
             ra, dec = mech.reported()
             return sky.equatorial_to_horizontal(sky.hour_angle(site.lst(mech.t), ra), dec, site.latitude_deg)
+
+    @property
+    def imperfection(self) -> Imperfection:
+        """The mount's mechanical errors (``imperfection.py``): where the tube truly points, relative to its axes."""
+        return self.mechanics.imperfection
+
+    def set_imperfection(self, imperfection: Imperfection) -> None:
+        """Change the mount's mechanical errors (the control port's ``pointing-errors``/``pointing-noise``)."""
+        with self._lock:
+            self.mechanics.imperfection = imperfection
+
+    def sky(self) -> tuple[float, float, float, float]:
+        """Where the tube truly points: (RA hours, Dec degrees, altitude, azimuth), in the frame of
+        ``position()`` (the mount's LST and site) but without its sync offset, which is only the mount's
+        belief. A perfect mount points where its axes say (``raw_ha_dec``)."""
+        with self._lock:
+            self.mechanics.advance()
+            return self._sky()
+
+    def _sky(self) -> tuple[float, float, float, float]:
+        """``sky()`` for callers holding the lock, the physics advanced."""
+        mech, site = self.mechanics, self.clock_site
+        ha, dec = mech.true_ha_dec()
+        alt, az = sky.equatorial_to_horizontal(ha, dec, site.latitude_deg)
+        return sky.ra_from_hour_angle(site.lst(mech.t), ha), dec, alt, az
 
     def axes(self) -> tuple[float, float]:
         """Mechanical (primary, secondary) axis angles in degrees, for tests and inspection."""
@@ -611,6 +640,7 @@ class MountModel:
             raw_ha, raw_dec = mech.raw_ha_dec()
             lst = site.lst(mech.t)
             alt, az = sky.equatorial_to_horizontal(sky.hour_angle(lst, ra), dec, site.latitude_deg)
+            sky_ra, sky_dec, sky_alt, sky_az = self._sky()
             persist = self.flash.persist
             return {
                 "emulated_seconds": mech.t,
@@ -629,6 +659,11 @@ class MountModel:
                 "az_deg": az,
                 "raw_ha_h": raw_ha,
                 "raw_dec_deg": raw_dec,
+                "sky_ra_h": sky_ra,  # where the tube truly points (imperfection.py), the frame of ra_h
+                "sky_dec_deg": sky_dec,
+                "sky_alt_deg": sky_alt,
+                "sky_az_deg": sky_az,
+                "pointing_errors": self.imperfection.describe(),
                 "primary_deg": mech.pos[RA],
                 "secondary_deg": mech.pos[DEC],
                 "velocity_deg_s": list(mech.vel),

@@ -27,6 +27,7 @@ from .observatory import SafetyDiscoverResource, SafetyResource
 from .settings import ServerResource, SettingsResource
 from .skyview import SkyResource
 from .status import StatusResource
+from .survey import SurveyResource, SurveyText
 from .trace import TraceResource, TraceText
 
 log = logging.getLogger(__name__)
@@ -61,6 +62,8 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/telescope/{number}/sync", SyncResource(web)),
         ("/setup/api/telescope/{number}/sky", SkyResource(web)),
         ("/setup/api/telescope/{number}/trace.txt", TraceText(web)),
+        ("/setup/api/telescope/{number}/survey", SurveyResource(web)),
+        ("/setup/api/telescope/{number}/survey.txt", SurveyText(web)),
     ]
 
 
