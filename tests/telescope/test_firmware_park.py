@@ -21,7 +21,7 @@ from tests.support import wait_until
 from tests.telescope.harness import SPEED, Api
 
 PARKED = 0x408
-PRESETS = ["am5-1.9.2", "am5-1.8.8"]
+PRESETS = ["am5-1.9.2", "am5-1.8.8", "am5n-1.8.8"]
 
 
 @pytest.fixture(params=PRESETS)
