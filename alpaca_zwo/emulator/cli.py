@@ -20,6 +20,7 @@ from datetime import datetime, timezone
 from types import FrameType
 
 from ..zwo.firmware import (
+    ACK_WHILE_SLEWING,
     DEFAULT_PRESET,
     GH_REPLIES,
     GPS_REPLIES,
@@ -150,7 +151,9 @@ def build_parser() -> argparse.ArgumentParser:
             ("--status-word", STATUS_WORDS, ":GU# as documented, or the 1.8.8 word (M, state digit)"),
             ("--unknown-query", UNKNOWN_QUERIES, "an unknown :G..# is silent, or answers # (1.8.8)"),
             ("--home-reading", HOME_READINGS, "home reads N and HA -6 h, or E and +6 h (1.8.8)"),
-            ("--jog-rates", JOG_RATES, ":R1#-:R7# as documented, or as measured on an AM5N")):
+            ("--jog-rates", JOG_RATES, ":R1#-:R7# as documented, or as measured on an AM5N"),
+            ("--ack-while-slewing", ACK_WHILE_SLEWING, ":Te#/:Td# during a slew answered at once, once it "
+                                                        "ends (1.8.8), or never")):
         fw.add_argument(flag, choices=choices, help=text)
     for flag, text in (("--compound-goto-sync", ":SMeq/:SMMC work as documented (real firmware answers e2#)"),
                        ("--custom-tracking", ":STRnn# custom rate works (real: no reply)"),
@@ -169,7 +172,8 @@ def firmware_from_args(args: argparse.Namespace) -> FirmwareVariant:
     switches = {name: getattr(args, name) for name in (
         "model", "home_flag", "gt_mapping", "gps_reply", "gh_reply", "compound_goto_sync", "custom_tracking",
         "gmza_south_azimuth", "goto_flip_at_meridian", "pier_letter", "ns_moves", "site_in_flash", "park_refusal",
-        "hp_while_tracking", "status_word", "unknown_query", "home_reading", "jog_rates", "park_at_home")}
+        "hp_while_tracking", "status_word", "unknown_query", "home_reading", "jog_rates", "park_at_home",
+        "ack_while_slewing")}
     switches["version"] = args.firmware
     overrides = {name: value for name, value in switches.items() if value is not None}
     if args.hp_reply is not None:  # "none" is a value of its own: the :hP# that answers nothing

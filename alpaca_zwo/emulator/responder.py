@@ -15,7 +15,7 @@ from datetime import date, datetime, time
 
 from ..zwo import dispatch, wire_values
 from ..zwo.dispatch import Verbatim
-from ..zwo.firmware import PARKED_REFUSED, has_feature
+from ..zwo.firmware import ACKS_HELD_WHILE_SLEWING, PARKED_REFUSED, has_feature
 from ..zwo.protocol import BY_CODE, CommandMatch, TrackingState, match_command
 from ..zwo.wire_values import Direction, MeridianSettings, MountMode, MountStatus, TrackRate
 from .model import MountModel
@@ -335,6 +335,15 @@ class ModelResponder:
     def __init__(self, model: MountModel) -> None:
         self.model = model
         self.backend = ModelBackend(model)
+
+    def held_ack(self, body: str) -> str | None:
+        """Asked as a request arrives, before :meth:`handle`: "late" or "never" when this build holds back
+        the acknowledgement of ``body`` because a slew runs (``FirmwareVariant.ack_while_slewing``), else
+        None. The line, which owns the timing of replies, carries it out."""
+        mode = self.model.firmware.ack_while_slewing
+        if mode == "prompt" or body not in ACKS_HELD_WHILE_SLEWING or not self.model.slewing():
+            return None
+        return mode
 
     def handle(self, body: str) -> str | None:
         """The reply text for ``body``, or None when the mount sends nothing back."""

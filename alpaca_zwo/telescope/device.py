@@ -34,6 +34,7 @@ from .._exceptions import (
     InvalidOperation,
     InvalidValue,
     MemberNotImplemented,
+    MountReplyError,
     Parked,
     mount_errors,
 )
@@ -167,6 +168,10 @@ class Telescope:
         self.connection.require_connected()
 
     def _require_unparked(self, what: str) -> None:
+        if self.motion.parked_by_mount:
+            raise Parked(f"{what} is not allowed while the mount is parked: it parked itself (its own park, "
+                         "set by the ZWO app, ASIAIR, a hand controller or another program, kept across power "
+                         "cycles); Unpark releases it")
         if self.motion.parked:
             raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
 
@@ -367,8 +372,8 @@ class Telescope:
         self._check_goto(ra, dec)
         try:
             return self.flips.goto(ra, dec, self._keep_east_setting(ra))
-        except DriverError as exc:
-            if exc.number == ERR_MOUNT_REFUSED:  # e5#/e6#: its limits may have changed over WiFi since read
+        except AlpacaError as exc:
+            if isinstance(exc.__cause__, MountReplyError):  # e5#/e6#: its limits may have changed over WiFi
                 self.mount.settings_cache.mark_stale()
             raise
 

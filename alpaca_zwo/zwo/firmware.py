@@ -19,6 +19,8 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 __all__ = [
+    "ACKS_HELD_WHILE_SLEWING",
+    "ACK_WHILE_SLEWING",
     "DEFAULT_PRESET",
     "FEATURES_SINCE",
     "GH_REPLIES",
@@ -89,6 +91,18 @@ MEASURED_JOG_SPEEDS: tuple[float, ...] = (0.25, 0.5, 1.0, 1.9, 4.0, 7.8, 20.0, 6
 PARKED_REFUSED = ("MS", "Te", "TQ", "Mg", "Mn", "Ms", "Me", "Mw", "hC", "hP", "hR", "hU", "hN", "hF",
                   "hW", "hS", "I", "PO", "MP")
 
+#: What a busy mount does with an acknowledgement (:data:`ACKS_HELD_WHILE_SLEWING`) asked for while a
+#: GOTO, home or park slew runs or brakes: answers at once (the documents), answers once the slew has
+#: ended, or never answers. An AM5N on 1.8.8 left ``:Te#`` (and ``:Td#`` right after ``:Q#``) unanswered
+#: for the whole 1.5 s its driver waited (epim/astrodeck server/astrodeck/devices/backends/zwo_am5.py,
+#: the ``_link_error`` docstring; real-transcripts-1.8.8.md §2 item 8). Whether the byte came later
+#: is not recorded, so both readings are switches; the 1.8.8 presets answer late, the case that tests
+#: a client hardest (a stray byte arriving in the middle of later exchanges). The command itself takes
+#: effect when it arrives, as the position reads that kept working during slews suggest.
+ACK_WHILE_SLEWING = ("prompt", "late", "never")
+#: The acknowledgements a slewing 1.8.8 mount was seen to hold back (the evidence names only these).
+ACKS_HELD_WHILE_SLEWING = ("Te", "Td")
+
 #: The firmware version from which a feature exists (field notes §5.6): the one table both the
 #: driver (what it may send) and the emulator (what it answers) read.
 FEATURES_SINCE: dict[str, tuple[int, ...]] = {
@@ -154,6 +168,7 @@ class FirmwareVariant:
     #: slews home from anywhere", Dec read +90 while parked), the home position.
     park_at_home: bool = False
     build_date: str = "Jan 25 2026"  # :GVD# (answered where unknown_query is 1.8.8)
+    ack_while_slewing: str = "prompt"  # prompt | late | never (ACK_WHILE_SLEWING)
     name: str = "custom"  # the preset this came from ("custom" when built by hand)
     description: str = ""  # where this build's behaviour was seen
 
@@ -176,6 +191,7 @@ class FirmwareVariant:
             "unknown_query": UNKNOWN_QUERIES,
             "home_reading": HOME_READINGS,
             "jog_rates": JOG_RATES,
+            "ack_while_slewing": ACK_WHILE_SLEWING,
         }
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
@@ -206,7 +222,8 @@ def _preset(name: str, description: str, **switches: Any) -> FirmwareVariant:
 #: capture; S2's unverified "1#/0#" stays a switch, ``hp_reply``), the firmware's own park.
 _REAL_1_8_8: dict[str, Any] = {"hp_reply": None, "park_refusal": "e14", "hp_while_tracking": "ignored",
                                "status_word": "1.8.8", "unknown_query": "1.8.8", "home_reading": "through_pole",
-                               "jog_rates": "measured", "park_at_home": True, "gh_reply": "zero"}
+                               "jog_rates": "measured", "park_at_home": True, "gh_reply": "zero",
+                               "ack_while_slewing": "late"}
 
 #: Named builds, the first the default. Each quirk cites where it was seen (field notes §0 keys).
 PRESETS: dict[str, FirmwareVariant] = {

@@ -268,6 +268,7 @@ SWITCH_PROBES: tuple[SwitchProbe, ...] = (
     SwitchProbe("build_date", (), None, ":GVD#, which only some builds know (not in the fixed list)"),
     SwitchProbe("jog_rates", (), None, "a timed move at :R3#/:R5#, which moves the mount"),
     SwitchProbe("park_at_home", (), None, "sending :hP#, which parks the mount"),
+    SwitchProbe("ack_while_slewing", (), None, ":Te# sent during a GOTO, which moves the mount"),
 )
 
 
@@ -277,7 +278,7 @@ _CHOICES = {"home_flag": "HOME_FLAGS", "gt_mapping": "GT_MAPPINGS", "gps_reply":
             "hp_reply": "HP_REPLIES", "gh_reply": "GH_REPLIES", "pier_letter": "PIER_LETTERS",
             "ns_moves": "NS_MOVES", "park_refusal": "PARK_REFUSALS", "hp_while_tracking": "HP_WHILE_TRACKING",
             "status_word": "STATUS_WORDS", "unknown_query": "UNKNOWN_QUERIES", "home_reading": "HOME_READINGS",
-            "jog_rates": "JOG_RATES"}
+            "jog_rates": "JOG_RATES", "ack_while_slewing": "ACK_WHILE_SLEWING"}
 
 
 def _choices(switch: str) -> frozenset[Any] | None:

@@ -251,7 +251,10 @@ def _firmware(config: dict[str, Any]) -> Any:
 
     if "switches" in config:
         return FirmwareVariant(**config["switches"])
-    return preset(config["preset"])
+    # The record is of what the mount answers, one request at a time: a busy 1.8.8 mount's late
+    # acknowledgement (ack_while_slewing) would land in whichever later reply is open when its slew
+    # ends. Its timing is tested where it matters, tests/zwo/test_late_acks.py.
+    return preset(config["preset"], ack_while_slewing="prompt")
 
 
 def _model(config: dict[str, Any], clock: Any, initialized: bool) -> Any:
