@@ -62,19 +62,29 @@
 
   // ---------------------------------------------------------------- messages
 
-  // Messages are toasts in the dock (index.html) above STOP: they never push a control. A success clears
-  // the errors shown before it (the situation they described has changed: the log keeps them all);
-  // a success fades after a few seconds, an error stays until dismissed or the next success.
-  function message(text, kind) {
-    const area = $("messages");
+  // One message place, in STOP's bar (index.html): the page is padded by the bar's height, so a message
+  // never lies over a control, and a phone's object sheet sits above it. The newest message replaces the one
+  // before; every message also goes into the server's log, which is their history (the Log panel, the
+  // download). A success fades after a few seconds; an error stays until dismissed, replaced by a newer
+  // message, or the selection changes. A refusal caused by a control (near: the button or its form) is
+  // shown beside that control instead, where the eye already is, until that control next succeeds.
+  let fadeTimer = null;
+
+  function message(text, kind, near) {
     const type = kind || "error";
-    if (type === "info") for (const old of area.querySelectorAll(".msg.error")) old.remove();
-    for (const old of area.querySelectorAll(".msg")) {
-      if (old.dataset.text === text) old.remove(); // the same words again: shown once, as the newest
+    keepInLog(text, type);
+    clearTimeout(fadeTimer);
+    const area = $("messages");
+    area.replaceChildren();
+    if (near) {
+      const box = refusalBeside(near, type === "error");
+      if (box) {
+        box.textContent = text;
+        return;
+      }
     }
     const box = document.createElement("div");
     box.className = "msg " + type;
-    box.dataset.text = text;
     if (type === "error") box.setAttribute("role", "alert");
     const span = document.createElement("span");
     span.textContent = text;
@@ -86,19 +96,48 @@
     close.addEventListener("click", () => box.remove());
     box.append(span, close);
     area.append(box);
-    while (area.children.length > 4) area.firstChild.remove();
-    if (type === "info") setTimeout(() => box.remove(), 3500);
+    if (type === "info") fadeTimer = setTimeout(() => box.remove(), 3500);
   }
 
-  // Run a control; show its error, refresh the status at once so the effect is visible.
-  async function run(label, fn, quietOk) {
+  // The refusal line beside a control (made on first use, under its row or form), or null when the
+  // message is a success: then the control's old refusal is removed, since what it said no longer holds.
+  function refusalBeside(near, wanted) {
+    const holder = near.closest("form, .row") || near;
+    const next = holder.nextElementSibling;
+    const old = next && next.classList.contains("refusal") ? next : null;
+    if (!wanted) {
+      if (old) old.remove();
+      return null;
+    }
+    if (old) return old;
+    const box = document.createElement("p");
+    box.className = "refusal";
+    box.setAttribute("role", "alert");
+    holder.after(box);
+    return box;
+  }
+
+  /** Clear the message place and every refusal: what they described belongs to the last selection. */
+  function clearMessages() {
+    clearTimeout(fadeTimer);
+    $("messages").replaceChildren();
+    for (const box of document.querySelectorAll(".refusal")) box.remove();
+  }
+
+  function keepInLog(text, level) {
+    post("/setup/api/log", { text, level }).catch(() => { /* the server is unreachable: the message says so */ });
+  }
+
+  // Run a control; show its error (beside near, when given), refresh the status at once so the effect is visible.
+  async function run(label, fn, quietOk, near) {
     try {
       const result = await fn();
-      if (!quietOk) message(label, "info");
+      if (!quietOk) message(label, "info", near);
+      else if (near) refusalBeside(near, false);
       poll(true);
       return result;
     } catch (err) {
-      message(label.replace(/\.$/, "") + " failed: " + err.message, "error");
+      message(label.replace(/\.$/, "") + " failed: " + err.message, "error", near);
       return null;
     }
   }
@@ -644,7 +683,7 @@
     }
     window.addEventListener("blur", stopJog);
     document.addEventListener("visibilitychange", () => { if (document.hidden) stopJog(); });
-    $("jog-stop").addEventListener("click", () => run("Stopped.", () => action("abort")));
+    $("jog-stop").addEventListener("click", stopMount);
     const speed = $("jog-speed");
     for (const m of state.server.jog_multiples) {
       const opt = document.createElement("option");
@@ -655,13 +694,17 @@
     speed.value = "20";
   }
 
-  // STOP says whether it reached the mount: the server answers only once the stop was written to it.
+  // STOP says whether it reached the mount: the server answers only once the stop was written to it. The
+  // motion line (handset.js) says "Stopping…" from the tap and where the mount came to rest once it has.
   async function stopMount() {
     stopJog();
+    document.dispatchEvent(new Event("alpaca-zwo-stop"));
     try {
       await action("abort");
-      message("Stopped: the mount acknowledged.", "info");
+      document.dispatchEvent(new CustomEvent("alpaca-zwo-stop-sent", { detail: { ok: true } }));
+      keepInLog("STOP pressed on the page: the mount acknowledged the stop.", "info");
     } catch (err) {
+      document.dispatchEvent(new CustomEvent("alpaca-zwo-stop-sent", { detail: { ok: false } }));
       message("STOP: " + err.message, "error"); // the server says whether it reached the mount
     }
     poll(true);
@@ -820,14 +863,15 @@
   function saveSettings(label, build) {
     return async (ev) => {
       ev.preventDefault();
+      const form = ev.target;
       let body;
       try {
         body = build();
       } catch (err) {
-        message(err.message);
+        message(err.message, "error", form);
         return;
       }
-      const result = await run(label, () => post(base + "/settings", body));
+      const result = await run(label, () => post(base + "/settings", body), false, form);
       if (result) fillSettings(result);
     };
   }
@@ -932,14 +976,15 @@
         host: $("n-host").value.trim(), port: num("n-port"), discovery_port: num("n-disc"),
         mdns: $("n-mdns").checked, location: $("n-location").value,
       };
-      const result = await run("Network settings saved; restart the server to apply them.", () => post("/setup/api/server", body));
+      const result = await run("Network settings saved; restart the server to apply them.",
+        () => post("/setup/api/server", body), false, ev.target);
       if (result) fillServer(result);
     });
     $("form-hosts").addEventListener("submit", async (ev) => {
       ev.preventDefault();
       const names = $("n-hosts").value.split(/[\s,]+/).filter((n) => n);
       const result = await run("Allowed host names saved (in effect now).",
-        () => post("/setup/api/server", { allowed_hosts: names }));
+        () => post("/setup/api/server", { allowed_hosts: names }), false, ev.target);
       if (result) fillServer(result);
     });
     $("form-networks").addEventListener("submit", async (ev) => {
@@ -947,7 +992,7 @@
       const lines = (id) => $(id).value.split(/[\s,]+/).filter((n) => n);
       const networks = { zwo_port: lines("n-zwo-networks"), stellarium: lines("n-stellarium-networks") };
       const result = await run("Bridge networks saved (in effect now).",
-        () => post("/setup/api/server", { allowed_networks: networks }));
+        () => post("/setup/api/server", { allowed_networks: networks }), false, ev.target);
       if (result) fillServer(result);
     });
   }
@@ -1029,7 +1074,7 @@
       const pre = $("log");
       const atBottom = pre.scrollTop + pre.clientHeight >= pre.scrollHeight - 4;
       for (const e of data.entries) {
-        const when = new Date(e.time * 1000).toISOString().slice(11, 19);
+        const when = new Date(e.time * 1000).toISOString().slice(11, 19) + " UTC"; // as the download, zone named
         pre.append(when + " " + e.level.padEnd(7) + " " + e.logger + ": " + e.message + "\n");
         state.logAfter = e.seq;
       }
@@ -1119,7 +1164,7 @@
   // The small hook the hand controller (handset.js) and the sky chart build on; the rest stays private.
   const statusListeners = [];
   window.alpacaZwo = Object.assign(window.alpacaZwo || {}, {
-    base, request, post, message, poll, fmtHours, fmtDeg, fmtAz,
+    base, request, post, message, clearMessages, poll, fmtHours, fmtDeg, fmtAz,
     project, unproject, R, MIN_ALT, // the chart's projection, for skychart.js
     geoInsecureText, geoErrorText, // why a browser will not tell its position, for fieldline.js
     onStatus: (listener) => { statusListeners.push(listener); },

@@ -32,6 +32,7 @@
     ours: null, // {name, kind} of the slew this page started, to name it on arrival
     seen: null, // the running motion seen in the feed: {kind, target, name}
     approach: [], // [ms, degrees left]
+    stopping: null, // {acked: ms} from a tap on STOP until the mount is at rest (acked: 0 until it has the stop)
     searchTimer: null,
     searchSeq: 0,
   };
@@ -202,6 +203,7 @@
 
   // from: "chart" when tapped or chosen on the sky chart (a phone then shows the card as a sheet over the page).
   async function select(id, from) {
+    hook.clearMessages(); // what they said was about the last object, or what was done before it
     hs.matches = [];
     renderMatches();
     cancelConfirm();
@@ -290,13 +292,16 @@
     // Named before the request: a status poll can show the new slew before the POST's reply arrives,
     // and a short slew can end within that poll ("Slewing to the target", "Arrived at the target").
     const before = hs.ours;
-    if (verb === "goto") hs.ours = { name: o.name, started: Date.now() };
+    if (verb === "goto") {
+      hs.ours = { name: o.name, started: Date.now() };
+      hs.stopping = null; // a new GoTo ends the wait for the last stop's rest: its progress takes the line
+    }
     let reply;
     try {
       reply = await postRaw(hook.base + "/" + verb, body);
     } catch (err) {
       hs.ours = before;
-      hook.message(err.message, "error");
+      hook.message(err.message, "error", $("btn-goto"));
       return;
     }
     if (verb === "goto" && reply.status !== 200) hs.ours = before;
@@ -311,7 +316,7 @@
     cancelConfirm();
     if (reply.status !== 200) {
       const words = reply.data.error || "HTTP " + reply.status;
-      hook.message((verb === "goto" ? "GoTo " : "Sync on ") + o.name + " refused: " + words, "error");
+      hook.message((verb === "goto" ? "GoTo " : "Sync on ") + o.name + " refused: " + words, "error", $("btn-goto"));
       setArrival("", "");
       return;
     }
@@ -319,10 +324,10 @@
     renderSelection();
     if (verb === "goto") {
       setArrival("", "");
-      hook.message("GoTo " + o.name + " started.", "info");
+      hook.message("GoTo " + o.name + " started.", "info", $("btn-goto"));
     } else {
       hook.message("Synced on " + o.name + ": the mount now reads RA " + hook.fmtHours(reply.data.ra) +
-        ", Dec " + hook.fmtDeg(reply.data.dec) + ".", "info");
+        ", Dec " + hook.fmtDeg(reply.data.dec) + ".", "info", $("btn-goto"));
     }
     hook.poll(true);
   }
@@ -363,31 +368,74 @@
     return s < 90 ? ", about " + Math.max(1, Math.round(s)) + " s" : ", about " + Math.round(s / 60) + " min";
   }
 
+  // STOP is honest through braking: the mount keeps moving for a second or more after it has the stop, and
+  // Alpaca's Slewing (the status's "slewing") stays true until it is at rest. So a stop pressed here shows
+  // "Stopping…" from the tap, and the line says where the mount came to rest only from a reading taken
+  // after the mount acknowledged the stop and with Slewing false; a slew stopped from elsewhere waits
+  // for rest the same way before it says where the mount is.
+  function stopPressed() {
+    hs.stopping = { acked: 0 };
+    braking("Stopping\u2026");
+  }
+
+  function stopAcknowledged(ok) {
+    if (!hs.stopping) return;
+    if (ok) hs.stopping.acked = Date.now();
+    else {
+      hs.stopping = null; // the stop did not reach the mount: the status line and STOP's error say so
+      show("progress", false);
+    }
+  }
+
+  function braking(text) {
+    $("progress").textContent = text;
+    show("progress", true);
+    setArrival("", "");
+  }
+
+  /** A reading to judge the stop by: the poll was sent after the mount acknowledged it. */
+  function afterTheStop(s) {
+    const stop = hs.stopping;
+    return Boolean(stop && stop.acked && s.client_timing && s.client_timing.sent >= stop.acked);
+  }
+
   function onStatus(s) {
     const m = s.motion;
+    if (hs.stopping && !afterTheStop(s)) return; // "Stopping…" until a reading the stop can be judged by
     const running = Boolean(m && m.active && s.connected);
-    if (running) {
-      const name = m.kind === "slew" && hs.ours ? hs.ours.name : null;
-      if (!hs.seen || hs.seen.kind !== m.kind) hs.approach = [];
-      const since = hs.seen && hs.seen.kind === m.kind ? hs.seen.since : Date.now();
-      hs.seen = { kind: m.kind, target: m.target, name, since };
-      let text = (KIND_WORDS[m.kind] || "Moving to") + " " + (name || (m.kind === "park" ? "the park position" : m.kind === "find home" ? "home" : "the target"));
-      if (m.target && s.position) {
-        const left = separation(s.position.ra, s.position.dec, m.target.ra, m.target.dec);
-        text += ": " + fmtAngle(left) + " left" + eta(left);
-      }
-      $("progress").textContent = text;
-      show("progress", true);
-      setArrival("", "");
+    if (running && !hs.stopping) {
+      progress(s, m);
+      return;
+    }
+    if (s.connected && s.slewing && (hs.stopping || (hs.seen && m && m.error))) {
+      braking(hs.stopping ? "Stopping: the mount has the stop and is braking\u2026" : "Stopping: the mount is braking\u2026");
       return;
     }
     show("progress", false);
-    if (hs.seen && m) ended(s, m, hs.seen);
+    if (hs.seen && m) ended(s, m, hs.seen, Boolean(hs.stopping));
+    else if (hs.stopping) setArrival("Stopped" + (s.position ? ": at rest at " + where(s.position) : "") + ".", "");
+    hs.stopping = null;
     hs.seen = null;
     hs.approach = [];
   }
 
-  function ended(s, m, seen) {
+  function progress(s, m) {
+    const name = m.kind === "slew" && hs.ours ? hs.ours.name : null;
+    if (!hs.seen || hs.seen.kind !== m.kind) hs.approach = [];
+    const since = hs.seen && hs.seen.kind === m.kind ? hs.seen.since : Date.now();
+    hs.seen = { kind: m.kind, target: m.target, name, since };
+    let text = (KIND_WORDS[m.kind] || "Moving to") + " " + (name || (m.kind === "park" ? "the park position" : m.kind === "find home" ? "home" : "the target"));
+    if (m.target && s.position) {
+      const left = separation(s.position.ra, s.position.dec, m.target.ra, m.target.dec);
+      text += ": " + fmtAngle(left) + " left" + eta(left);
+    }
+    $("progress").textContent = text;
+    show("progress", true);
+    setArrival("", "");
+  }
+
+  // How a motion ended, said once the mount is at rest; byStop: the STOP pressed on this page ended it.
+  function ended(s, m, seen, byStop) {
     if (hs.ours && hs.ours.started <= seen.since) hs.ours = null; // a newer GoTo keeps its name
     const pos = s.position;
     const what = seen.name || (seen.kind === "park" ? "the park position" : seen.kind === "find home" ? "home" : "the target");
@@ -397,10 +445,15 @@
       setArrival(verb + (pos ? ": " + where(pos) : "") + ".", "ok");
       return;
     }
-    const why = m.error === "stopped" ? "it was stopped (STOP, or another program stopped it)"
+    const short = "Stopped before reaching " + what + (left !== null ? ", " + fmtAngle(left) + " away" : "");
+    const rest = pos ? ". At rest at " + where(pos) + "." : ".";
+    if (byStop && m.error === "stopped") {
+      setArrival(short + rest, ""); // what the person asked for: said plainly, not as a fault
+      return;
+    }
+    const why = m.error === "stopped" ? "another program (or another page) stopped it"
       : m.error === "replaced" ? "another slew replaced it" : m.error || "the mount stopped short";
-    setArrival("Stopped before reaching " + what + (left !== null ? ", " + fmtAngle(left) + " away" : "") +
-      ", because " + why + (pos ? ". Now at " + where(pos) : "") + ".", "bad");
+    setArrival(short + ", because " + why + rest, "bad");
   }
 
   // ------------------------------------------------------------------ the phone's sheet
@@ -436,6 +489,8 @@
     $("arrival-close").addEventListener("click", () => setArrival("", ""));
     PHONE.addEventListener("change", () => { if (!PHONE.matches) placeCard(false); });
     hook.onStatus(onStatus);
+    document.addEventListener("alpaca-zwo-stop", stopPressed);
+    document.addEventListener("alpaca-zwo-stop-sent", (ev) => stopAcknowledged(ev.detail.ok));
     setInterval(refreshSelection, REFRESH_MS);
   }
 
