@@ -65,9 +65,10 @@
   // One message place, in STOP's bar (index.html): the page is padded by the bar's height, so a message
   // never lies over a control, and a phone's object sheet sits above it. The newest message replaces the one
   // before; every message also goes into the server's log, which is their history (the Log panel, the
-  // download). A success fades after a few seconds; an error stays until dismissed, replaced by a newer
-  // message, or the selection changes. A refusal caused by a control (near: the button or its form) is
-  // shown beside that control instead, where the eye already is, until that control next succeeds.
+  // download). A refusal caused by a control (near: the button or its form) is shown beside that control
+  // instead, where the eye already is. A success fades after a few seconds and clears every error shown
+  // before it (the situation they described has changed); an error stays until dismissed, replaced by a
+  // newer message, or the selection changes.
   let fadeTimer = null;
 
   function message(text, kind, near) {
@@ -76,12 +77,10 @@
     clearTimeout(fadeTimer);
     const area = $("messages");
     area.replaceChildren();
-    if (near) {
-      const box = refusalBeside(near, type === "error");
-      if (box) {
-        box.textContent = text;
-        return;
-      }
+    for (const old of document.querySelectorAll(".refusal")) old.remove(); // the newest only, there too
+    if (near && type === "error") {
+      refusalBeside(near).textContent = text;
+      return;
     }
     const box = document.createElement("div");
     box.className = "msg " + type;
@@ -99,21 +98,12 @@
     if (type === "info") fadeTimer = setTimeout(() => box.remove(), 3500);
   }
 
-  // The refusal line beside a control (made on first use, under its row or form), or null when the
-  // message is a success: then the control's old refusal is removed, since what it said no longer holds.
-  function refusalBeside(near, wanted) {
-    const holder = near.closest("form, .row") || near;
-    const next = holder.nextElementSibling;
-    const old = next && next.classList.contains("refusal") ? next : null;
-    if (!wanted) {
-      if (old) old.remove();
-      return null;
-    }
-    if (old) return old;
+  // The refusal line beside a control: a new one under its row or form.
+  function refusalBeside(near) {
     const box = document.createElement("p");
     box.className = "refusal";
     box.setAttribute("role", "alert");
-    holder.after(box);
+    (near.closest("form, .row") || near).after(box);
     return box;
   }
 
@@ -132,8 +122,7 @@
   async function run(label, fn, quietOk, near) {
     try {
       const result = await fn();
-      if (!quietOk) message(label, "info", near);
-      else if (near) refusalBeside(near, false);
+      if (!quietOk) message(label, "info");
       poll(true);
       return result;
     } catch (err) {

@@ -324,10 +324,10 @@
     renderSelection();
     if (verb === "goto") {
       setArrival("", "");
-      hook.message("GoTo " + o.name + " started.", "info", $("btn-goto"));
+      hook.message("GoTo " + o.name + " started.", "info");
     } else {
       hook.message("Synced on " + o.name + ": the mount now reads RA " + hook.fmtHours(reply.data.ra) +
-        ", Dec " + hook.fmtDeg(reply.data.dec) + ".", "info", $("btn-goto"));
+        ", Dec " + hook.fmtDeg(reply.data.dec) + ".", "info");
     }
     hook.poll(true);
   }
