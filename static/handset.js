@@ -72,24 +72,9 @@
     return (deg * 3600).toFixed(0) + "\u2033";
   }
 
-  function fmtClock(iso) {
-    if (!iso) return "\u2013";
-    return new Date(iso).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", hourCycle: "h23" });
-  }
-
   // "2026-11-26T19:02:00+09:00" (the server's site time) → "19:02": the clock as read at the site.
   function siteClock(iso) {
     return iso ? iso.slice(11, 16) : "\u2013";
-  }
-
-  function offsetMinutes(iso) {
-    const m = /([+-])(\d\d):(\d\d)$/.exec(iso || "");
-    return m ? (m[1] === "-" ? -1 : 1) * (Number(m[2]) * 60 + Number(m[3])) : 0;
-  }
-
-  function zoneText(minutes) {
-    const a = Math.abs(minutes);
-    return "UTC" + (minutes < 0 ? "\u2212" : "+") + Math.floor(a / 60) + (a % 60 ? ":" + String(a % 60).padStart(2, "0") : "");
   }
 
   function where(pos) {
@@ -240,23 +225,35 @@
     dl.append(dt, dd);
   }
 
-  function riseSet(o, clock) {
+  const EVENT_WORDS = { rise: "rises", transit: "highest", set: "sets" };
+  const ZONE_SOURCE = { site: "", server: ", the server's zone", longitude: " from the longitude, no daylight saving" };
+
+  // Tonight as it happens, in the site's clock with its zone named once (the server gives the zone of
+  // the site's own coordinates, daylight saving included): from dark (the Sun 18° down) to dawn, the
+  // object's rise, highest point and set in between, in time order, and its best time while it is dark.
+  function tonightText(o) {
     if (o.never_up) return "never rises here";
-    if (o.always_up) return "always up; transit " + clock("transit");
-    return "rise " + clock("rise") + " \u00b7 transit " + clock("transit") + " \u00b7 set " + clock("set");
+    const t = o.tonight;
+    if (!t) return "\u2013";
+    const now = Date.now();
+    const items = [[t.start, Date.parse(t.start) <= now + 60000 ? (t.dark ? "dark now" : "darkest now")
+      : (t.dark ? "dark " : "darkest ") + siteClock(t.start)]];
+    for (const e of t.events) items.push([e.at, EVENT_WORDS[e.what] + " " + siteClock(e.at)]);
+    items.push([t.end, (t.dark ? "dawn " : "brightening ") + siteClock(t.end)]);
+    if (t.best) { // the highest it stands while dark: said at the event it falls on, else on its own
+      const best = "(" + t.best_altitude.toFixed(0) + "\u00b0, best)";
+      const at = items.find((i) => i[0] === t.best);
+      if (at) at[1] += " " + best;
+      else items.push([t.best, "best " + siteClock(t.best) + " (" + t.best_altitude.toFixed(0) + "\u00b0)"]);
+    }
+    items.sort((x, y) => Date.parse(x[0]) - Date.parse(y[0]));
+    const plan = items.map((i) => i[1]).join(" \u00b7 ") + (t.best ? "" : " \u00b7 not up while it is dark");
+    return (t.dark ? "" : "no full darkness tonight: ") + plan +
+      " (" + (o.site_zone || "site time") + (ZONE_SOURCE[o.site_zone_source] || "") + ")";
   }
 
-  // Rise, transit and set at the site's clock, its zone named; and in this browser's zone when it differs
-  // (a page opened from another time zone than the telescope's).
   function times(dl, o) {
-    const site = o.site_times || {};
-    fact(dl, "Tonight", riseSet(o, (k) => siteClock(site[k])) + (o.never_up ? "" : " (" + (o.site_zone || "site") + ", site time)"));
-    const at = site.transit || site.rise || site.set;
-    if (!at || o.never_up) return;
-    const browser = -new Date(at).getTimezoneOffset();
-    if (browser !== offsetMinutes(at)) {
-      fact(dl, "Your zone", riseSet(o, (k) => fmtClock(o[k])) + " (" + zoneText(browser) + ", this browser)");
-    }
+    fact(dl, "Tonight", tonightText(o));
   }
 
   function renderSelection() {
