@@ -34,7 +34,7 @@ from .config.settings import ParkSettings, Settings, horizon_altitude_at, settin
 from .motion import Motion, MotionKind
 from .mount.state import MountSettings, MountState
 from .mount.timekeeping import ClockView
-from .sky import SIDEREAL_DEG_S, flip_line_deg
+from .sky import SIDEREAL_DEG_S
 from .telescope.stored_settings import CHECKS as STORED_CHECKS
 from .zwo.link import LinkCounters, LinkStatus, TraceEntry
 from .zwo.wire_values import MeridianSettings
@@ -293,17 +293,14 @@ class DeviceFacade:
         request_mode(self._telescope, name)
         log.info("setup page: mount mode set to %s", name)
 
-    def flip_line(self) -> tuple[bool, float]:
-        """The mount's "track past" flag and its flip line in degrees past the meridian
-        (``sky.flip_line_deg``, the rule DestinationSideOfPier predicts with): by the mount's own setting
-        when it has been read, else the configured one."""
+    def meridian_setting(self) -> tuple[bool, float]:
+        """The mount's "track past" flag and its limit in degrees (negative: before the meridian): by the
+        mount's own setting when it has been read, else the configured one."""
         cached = self.cached_mount_settings
         if cached is not None and cached.meridian is not None:
-            track_after, limit = cached.meridian.track_after, float(cached.meridian.limit_degrees)
-        else:
-            limits = self._server.settings.limits
-            track_after, limit = limits.meridian_track_past, limits.meridian_limit_deg
-        return track_after, flip_line_deg(limit, track_after)
+            return cached.meridian.track_after, float(cached.meridian.limit_degrees)
+        limits = self._server.settings.limits
+        return limits.meridian_track_past, limits.meridian_limit_deg
 
     def mount_mode(self) -> dict[str, Any] | None:
         """The mode now in effect, the one requested and, while they differ, the warning that the mount

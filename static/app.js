@@ -118,6 +118,20 @@
     post("/setup/api/log", { text, level }).catch(() => { /* the server is unreachable: the message says so */ });
   }
 
+  // A control's failure said as what did not happen ("Horizon saved." → "Horizon not saved"); the reason follows.
+  const FAILED = {
+    "Mount connected.": "The mount did not connect", "Released the mount.": "The mount was not released",
+    "Parking\u2026": "The mount did not park", "Unparked.": "The mount did not unpark",
+    "Going home\u2026": "The mount did not go home", "Tracking on.": "Tracking did not turn on",
+    "Tracking off.": "Tracking did not turn off", "Discovery done.": "Nothing was found",
+  };
+
+  function failedText(label) {
+    if (FAILED[label]) return FAILED[label];
+    const done = / (saved|set|sent)\b/.exec(label);
+    return done ? label.slice(0, done.index) + " not " + done[1] : label.replace(/[.\u2026]$/, "") + " did not work";
+  }
+
   // Run a control; show its error (beside near, when given), refresh the status at once so the effect is visible.
   async function run(label, fn, quietOk, near) {
     try {
@@ -126,7 +140,7 @@
       poll(true);
       return result;
     } catch (err) {
-      message(label.replace(/\.$/, "") + " failed: " + err.message, "error", near);
+      message(failedText(label) + ": " + err.message, "error", near);
       return null;
     }
   }
@@ -420,11 +434,8 @@
     const park = s.at_park ? "parked" : s.at_home ? "at home" : "no";
     setText("park", s.connected ? park : "\u2013", s.at_park || s.at_home ? "yes" : "");
 
-    const m = s.meridian;
-    let mer = m.limit_deg === 0 ? "flips at the meridian"
-      : "flip line " + Math.abs(m.limit_deg) + "\u00b0 " + (m.limit_deg > 0 ? "past" : "before") + " the meridian";
-    if (m.minutes_to_limit !== null) mer += m.minutes_to_limit >= 0 ? "; reached in " + fmtMinutes(m.minutes_to_limit) : "; passed " + fmtMinutes(-m.minutes_to_limit) + " ago";
-    setText("meridian", mer);
+    setText("meridian", meridianText(s.meridian));
+    setText("mer-nina", ninaAdvice(s.meridian), "muted small");
     // Name what is really driven: the built-in emulator, or the mount at the --device/config URL.
     const driven = s.link.emulated ? "built-in emulator" : s.link.url;
     setText("mount", (s.mount ? "ZWO " + s.mount.model + ", firmware " + s.mount.firmware + (s.flags.mode ? ", " + s.flags.mode : "") + " \u2014 " : "") + driven);
@@ -483,6 +494,32 @@
     renderBridges(s.bridges || []);
     renderSafety(s.safety);
     drawSky(s);
+  }
+
+  // The meridian as the mount will meet it, from its own settings (the server's sky.tracking_stop_deg): where
+  // tracking stops, and that the mount does not flip by itself (docs/meridian.md).
+  function meridianText(m) {
+    const stop = m.stop_deg;
+    const at = stop === 0 ? "at the meridian" : Math.abs(stop) + "\u00b0 " + (stop > 0 ? "past" : "before") + " the meridian";
+    let text = "tracking stops " + at + " (" + (m.track_after || stop < 0 ? "the mount's limit" : "the mount's rule without \u201ctrack past\u201d") +
+      "); the mount does not flip by itself: a GoTo past the meridian flips it";
+    if (m.minutes_to_stop !== null) {
+      text += m.minutes_to_stop >= 0 ? "; stops in " + fmtMinutes(m.minutes_to_stop) : "; stopped " + fmtMinutes(-m.minutes_to_stop) + " ago";
+    }
+    return text;
+  }
+
+  // What N.I.N.A.'s Meridian Flip settings must be for its flip to come before the mount stops tracking.
+  function ninaAdvice(m) {
+    const where = "For N.I.N.A. (Options \u203a Imaging \u203a Meridian Flip): ";
+    const minutes = Math.round(m.stop_minutes);
+    if (minutes <= 0) {
+      return where + "tracking stops " + (-minutes) + " min before the meridian, so set Pause before meridian to " +
+        (1 - minutes) + " min or more; N.I.N.A. then flips after the meridian.";
+    }
+    return where + "its flip must come before tracking stops, " + minutes + " min after the meridian: set Max minutes " +
+      "after meridian to " + (minutes - 1) + " or less, and Minutes after meridian below that." +
+      (minutes < 11 ? " To keep N.I.N.A.'s usual 5 and 10 min instead, tick Track past the meridian with a limit of 3\u00b0 (12 min) or more." : "");
   }
 
   // One plain message when the mount cannot be reached: what happened and what to try (no exception text).
@@ -653,7 +690,7 @@
             state.jogging = null;
             button.classList.remove("pressed");
           }
-          message("Move failed: " + err.message);
+          message("The move did not start: " + err.message);
         });
       });
       for (const type of ["pointerup", "pointercancel", "lostpointercapture", "pointerleave"]) {
@@ -707,7 +744,7 @@
     window.addEventListener("keydown", (ev) => {
       if (ev.key === "Escape" && !ev.repeat) stopMount();
     }, true);
-    $("btn-connect").addEventListener("click", () => run("Mount connected.", () => action("connect")));
+    $("btn-connect").addEventListener("click", (ev) => run("Mount connected.", () => action("connect"), false, ev.currentTarget));
     $("btn-disconnect").addEventListener("click", () => run("Released the mount.", () => action("disconnect")));
     $("btn-park").addEventListener("click", () => run("Parking\u2026", () => action("park")));
     $("btn-unpark").addEventListener("click", () => run("Unparked.", () => action("unpark")));
@@ -835,8 +872,11 @@
     }
   }
 
+  // The horizon's points, and the line of the text each came from (state.horizonLines), so that a refusal
+  // of "point 1" reads as the line the person sees (comments and blank lines count).
   function parseHorizon(text) {
     const points = [];
+    state.horizonLines = [];
     for (const [i, line] of text.split("\n").entries()) {
       const t = line.trim();
       if (!t || t.startsWith("#")) continue;
@@ -845,11 +885,18 @@
         throw new Error("horizon line " + (i + 1) + " is not \u201cazimuth altitude\u201d: " + t);
       }
       points.push(parts);
+      state.horizonLines.push(i + 1);
     }
     return points;
   }
 
-  function saveSettings(label, build) {
+  function horizonWords(text) {
+    return text.replace(/limits\.horizon: point (\d+)/, (_, i) => "horizon line " + (state.horizonLines[Number(i)] || Number(i) + 1))
+      .replace("limits.horizon: ", "horizon: ");
+  }
+
+  // explain: the server's refusal put in the form's own words (optional).
+  function saveSettings(label, build, explain) {
     return async (ev) => {
       ev.preventDefault();
       const form = ev.target;
@@ -860,7 +907,10 @@
         message(err.message, "error", form);
         return;
       }
-      const result = await run(label, () => post(base + "/settings", body), false, form);
+      const send = () => post(base + "/settings", body).catch((err) => {
+        throw explain ? new Error(explain(err.message)) : err;
+      });
+      const result = await run(label, send, false, form);
       if (result) fillSettings(result);
     };
   }
@@ -944,7 +994,7 @@
     })));
     $("form-horizon").addEventListener("submit", saveSettings("Horizon saved.", () => ({
       limits: { min_altitude_deg: num("h-min"), horizon: parseHorizon($("h-profile").value) },
-    })));
+    }), horizonWords));
     $("form-park").addEventListener("submit", saveSettings("Park position saved.", () => ({
       park: { mode: $("park-mode").value, ha_hours: num("park-ha"), dec_deg: num("park-dec") },
     })));

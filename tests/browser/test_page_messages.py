@@ -176,3 +176,20 @@ def test_stop_says_stopping_until_the_mount_is_at_rest_then_where(server_factory
                                                          int(dec.group(4)) / 3600)
     assert abs(shown_dec - client.value("declination")) * 3600 < 5, (said, client.value("declination"))
     browser.save_screenshot(f"/tmp/alpaca-zwo-stopped-{size}.png")
+
+
+@pytest.mark.parametrize("size", ["phone", "desktop"])
+def test_a_horizon_refusal_names_the_line_the_person_sees(server_factory: ServerFactory, browser: WebDriver,
+                                                          size: str) -> None:
+    scene = Scene(server_factory, browser, size, "Vega")
+    driver = scene.driver
+    profile = driver.find_element(By.ID, "h-profile")
+    tap(driver, profile)
+    profile.clear()
+    profile.send_keys("# the neighbour's trees\n0 10\n\n90 95")  # the server refuses its point 1: line 4 here
+    tap(driver, driver.find_element(By.CSS_SELECTOR, "#form-horizon button[type='submit']"))
+    beside = "#form-horizon + .refusal"
+    WebDriverWait(driver, TIMEOUT).until(lambda d: d.find_elements(By.CSS_SELECTOR, beside))
+    said = driver.find_element(By.CSS_SELECTOR, beside).text
+    assert said.startswith("Horizon not saved: horizon line 4 altitude"), said
+    assert "setup page" not in said and "limits." not in said and "point" not in said, said
