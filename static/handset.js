@@ -192,8 +192,9 @@
     hs.matches = [];
     renderMatches();
     cancelConfirm();
+    const typed = $("find").value;
     try {
-      const obj = await hook.request(hook.base + "/object?id=" + encodeURIComponent(id));
+      const obj = keepName(await hook.request(hook.base + "/object?id=" + encodeURIComponent(id)), typed);
       hs.selected = obj;
       $("find").value = obj.name;
       renderSelection();
@@ -210,10 +211,23 @@
     try {
       const fresh = await hook.request(hook.base + "/object?id=" + encodeURIComponent(obj.id));
       if (hs.selected && hs.selected.id === fresh.id) {
-        hs.selected = fresh;
+        hs.selected = keepName(fresh, hs.selected.name);
         renderSelection();
       }
     } catch (_) { /* the status poll reports an unreachable server */ }
+  }
+
+  // The name the person used when it is one of the object's common names ("Omega Centauri", not "NGC 5139"):
+  // the card, the GoTo messages, the progress and arrival lines and so the log keep it; the catalogue's
+  // designation stays on the card's second line.
+  function keepName(obj, typed) {
+    const fold = (t) => (t || "").normalize("NFKD").replace(/[\u0300-\u036f]/g, "").toLowerCase().replace(/\s+/g, " ").trim();
+    const named = (obj.common_names || []).find((n) => fold(n) === fold(typed));
+    if (named && named !== obj.name) {
+      obj.designation = obj.name;
+      obj.name = named;
+    }
+    return obj;
   }
 
   function fact(dl, term, value, cls) {
@@ -261,7 +275,8 @@
     show("selection", Boolean(o));
     if (!o) return;
     $("sel-name").textContent = o.name;
-    const names = [...(o.common_names || []).slice(0, 2), ...(o.aliases || []).filter((a) => !a.startsWith("HIP")).slice(0, 2)];
+    const names = [...(o.designation ? [o.designation] : []), ...(o.common_names || []).filter((n) => n !== o.name).slice(0, 2),
+      ...(o.aliases || []).filter((a) => !a.startsWith("HIP")).slice(0, 2)];
     $("sel-kind").textContent = o.kind + (o.magnitude !== null && o.magnitude !== undefined ? " \u00b7 magnitude " + o.magnitude.toFixed(1) : "") +
       (names.length ? " \u00b7 " + names.join(", ") : "");
     const dl = $("sel-facts");
@@ -274,6 +289,7 @@
     const verdict = o.verdict || {};
     const up = Boolean(verdict.reachable);
     fact(dl, "Limits", verdict.says || "\u2013", up ? "yes" : "bad");
+    if (o.phase) fact(dl, "Phase", o.phase.words + ", " + o.phase.lit_percent.toFixed(0) + "% lit");
     times(dl, o);
     fact(dl, "GoTo lands", o.destination_side_of_pier ? "pier " + PIER_WORDS[o.destination_side_of_pier] : "\u2013 (mount not connected)");
     $("btn-goto").classList.toggle("caution", !up);
@@ -317,7 +333,7 @@
       setArrival("", "");
       return;
     }
-    hs.selected = Object.assign({}, o, reply.data);
+    hs.selected = keepName(Object.assign({}, o, reply.data), o.name);
     renderSelection();
     if (verb === "goto") {
       setArrival("", "");

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
-from datetime import datetime
+from datetime import datetime, timezone
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
@@ -89,6 +89,23 @@ def _tonight(device: DeviceFacade, obj: SkyObject, zone: SiteZone) -> dict[str, 
             "best": _site_time(night.best, zone), "best_altitude": night.best_altitude}
 
 
+def _moon_phase(device: DeviceFacade) -> dict[str, Any]:
+    """The Moon's phase now: how much of it is lit and its name ("waxing crescent"), from PyEphem."""
+    import ephem
+
+    when = ephem.Date(device.utc_now().astimezone(timezone.utc).replace(tzinfo=None))
+    moon = ephem.Moon(when)
+    lit = float(moon.moon_phase) * 100.0
+    waxing = ephem.next_full_moon(when) < ephem.next_new_moon(when)
+    if lit < 3.0 or lit > 97.0:
+        words = "new moon" if lit < 3.0 else "full moon"
+    else:
+        shape = "crescent" if lit < 47.0 else "quarter" if lit <= 53.0 else "gibbous"
+        words = ("first " if waxing else "last ") + shape if shape == "quarter" else (
+            "waxing " if waxing else "waning ") + shape
+    return {"lit_percent": round(lit, 1), "waxing": waxing, "words": words}
+
+
 def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
     """What the page shows for a selection: the place now, whether a GoTo may go there, and how; the
     rise/transit/set instants in UTC and in the site's zone (``objects.site_zone``), with its name."""
@@ -109,6 +126,7 @@ def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
         "site_times": {"rise": _site_time(place.rise, zone), "transit": _site_time(place.transit, zone),
                        "set": _site_time(place.set, zone)},
         "tonight": _tonight(device, obj, zone),
+        "phase": _moon_phase(device) if obj.body == "Moon" else None,
         "always_up": place.always_up, "never_up": place.never_up,
         "tracking_rate": obj.tracking_rate,
         "destination_side_of_pier": PIER_SIDES.get(side) if side is not None else None,
