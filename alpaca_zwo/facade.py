@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from . import __version__
-from ._exceptions import AlpacaError, LinkError, MountReplyError, ProtocolError
+from ._exceptions import AlpacaError, AlpacaZwoError, LinkError, MountReplyError, ProtocolError
 from .clients import ClientActivity, ClientKey, current_client
 from .config.settings import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .motion import Motion, MotionKind
@@ -79,6 +79,8 @@ class SafetyStatusSource(Protocol):
     their ages, the recent events (``observatory.SafetyWatch.status``)."""
 
     def status(self) -> dict[str, Any]: ...
+
+    def ask_once(self, role: str, url: str, timeout: float = 5.0) -> tuple[bool, str]: ...
 
 
 class FacadeProvider(Protocol):
@@ -512,6 +514,18 @@ class ServerFacade:
             return {"safe": True, "state": "off", "source": "", "since": None, "reason": "", "monitor": None,
                     "roof": None, "events": []}
         return watch.status()
+
+    def test_safety_device(self, role: str, url: str) -> dict[str, Any]:
+        """Ask a SafetyMonitor (role "monitor") or a Dome ("roof") once, as the interlock would: ``{"ok": True,
+        "safe", "answer"}`` or ``{"ok": False, "error"}``. Sends traffic only when the user asks (Test)."""
+        watch = self._server.safety_watch
+        if watch is None:
+            return {"ok": False, "error": "the observatory interlock is not running"}
+        try:
+            safe, answer = watch.ask_once(role, url)
+        except AlpacaZwoError as exc:
+            return {"ok": False, "error": str(exc)}
+        return {"ok": True, "safe": safe, "answer": answer}
 
     def find_safety_devices(self, host: str = "") -> list[dict[str, Any]]:
         """Alpaca discovery (a broadcast on this machine's IPv4 networks, or a query to ``host`` only), then

@@ -124,6 +124,7 @@
     "Parking\u2026": "The mount did not park", "Unparked.": "The mount did not unpark",
     "Going home\u2026": "The mount did not go home", "Tracking on.": "Tracking did not turn on",
     "Tracking off.": "Tracking did not turn off", "Discovery done.": "Nothing was found",
+    "Test done.": "The test was not made",
   };
 
   function failedText(label) {
@@ -940,6 +941,25 @@
     }
   }
 
+  // Ask the monitor or roof typed in once, before saving it: its answer, or why it did not answer, under the
+  // buttons (the URL as the server reads it: a missing http:// is added, as Save does).
+  async function testSafetyDevice(role, field) {
+    const box = $("o-test");
+    box.textContent = "Asking\u2026";
+    box.className = "small";
+    const result = await run("Test done.", () => post("/setup/api/safety/test", { role, url: $(field).value.trim() }),
+      true, $("btn-test-" + role));
+    if (!result) {
+      box.className = "small hidden";
+      return;
+    }
+    const who = role === "monitor" ? "The monitor" : "The roof";
+    box.textContent = result.ok
+      ? who + " at " + result.url + " answered " + result.answer + ": " + (result.safe ? "motion would be allowed." : "motion would be refused.")
+      : who + " at " + result.url + " did not answer: " + result.error + ".";
+    box.className = "small " + (result.ok && result.safe ? "yes" : "bad");
+  }
+
   async function findSafetyDevices() {
     const list = $("o-found");
     list.replaceChildren();
@@ -1006,6 +1026,8 @@
                 unreachable_s: num("o-unreachable"), on_unsafe: $("o-on-unsafe").value },
     })));
     $("btn-find-devices").addEventListener("click", findSafetyDevices);
+    $("btn-test-monitor").addEventListener("click", () => testSafetyDevice("monitor", "o-monitor"));
+    $("btn-test-roof").addEventListener("click", () => testSafetyDevice("roof", "o-roof"));
     $("form-device").addEventListener("submit", saveSettings("Device name saved.", () => ({
       device: { name: $("d-name").value.trim() },
     })));

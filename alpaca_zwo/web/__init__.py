@@ -23,7 +23,7 @@ from .files import DeviceSetupPage, RootRedirect, SetupPage, StaticFiles, static
 from .goto import GotoResource, GotoVerdict, ObjectDetails, ObjectSearch, SyncResource
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
-from .observatory import SafetyDiscoverResource, SafetyResource
+from .observatory import SafetyDiscoverResource, SafetyResource, SafetyTestResource
 from .settings import ServerResource, SettingsResource
 from .skyview import SkyResource
 from .status import StatusResource
@@ -50,6 +50,7 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/log.txt", LogText(web.logs)),
         ("/setup/api/safety", SafetyResource(web)),
         ("/setup/api/safety/discover", SafetyDiscoverResource(web)),
+        ("/setup/api/safety/test", SafetyTestResource(web)),
         ("/setup/api/telescope/{number}/status", StatusResource(web)),
         ("/setup/api/telescope/{number}/settings", SettingsResource(web)),
         ("/setup/api/telescope/{number}/action/{name}", ActionResource(web)),

@@ -49,6 +49,24 @@ def test_a_settings_refusal_does_not_name_its_own_source(client: Client) -> None
     assert said.startswith("limits.horizon: point 1 altitude"), said  # the page turns this into its line number
 
 
+def test_the_observatory_test_refuses_bad_input_in_words(client: Client) -> None:
+    for body in ({}, {"role": "monitor"}, {"role": "monitor", "url": ""}, {"role": "weather", "url": "x:1/a"},
+                 {"role": "monitor", "url": "192.168.1.30:11111/api/v1/dome/0"}, {"role": "roof", "url": 5},
+                 {"role": "monitor", "url": "h:1/api/v1/safetymonitor/0", "extra": 1}):
+        r = client.post("/setup/api/safety/test", body)
+        assert r.status_code == 400, (body, r.text)
+        assert r.json()["error"] and "setup page" not in r.json()["error"]
+
+
+def test_a_device_url_without_its_scheme_is_plain_http(client: Client) -> None:
+    """The observatory form's label writes host:port/api/v1/...: that is what people type (issue 43 point 9)."""
+    saved = client.change({"safety": {"monitor": "127.0.0.1:9/api/v1/safetymonitor/0"}})
+    assert saved["safety"]["monitor"] == "http://127.0.0.1:9/api/v1/safetymonitor/0"
+    r = client.post("/setup/api/safety/test", {"role": "monitor", "url": "127.0.0.1:9/api/v1/safetymonitor/0"})
+    assert r.status_code == 200 and r.json()["ok"] is False and r.json()["url"].startswith("http://127.0.0.1:9/")
+    client.change({"safety": {"monitor": ""}})
+
+
 @pytest.fixture
 def client(base_url: str) -> Client:
     return Client(base_url)
