@@ -57,6 +57,8 @@ class ServerParts(Protocol):
     telescopes: list[Telescope]
     host_guard: HostGuard
     discovery: Any  # a DiscoveryResponder with a ``port``, or None when discovery is off
+    http: Any  # the Alpaca HttpServer: the ``host`` it listens on and its bound ``port``
+    advertiser: Any  # the mDNS advertiser, or None when mDNS is off
     gpsd: Any  # bridges.gpsd.GpsdSite (a ``status()`` dict) when site.gpsd is set, else None
 
     @property
@@ -478,6 +480,17 @@ class ServerFacade:
     @property
     def port(self) -> int:
         return self._server.port
+
+    def connect_info(self) -> dict[str, Any]:
+        """How a program on another computer reaches this server now: the address it listens on, this
+        machine's LAN addresses when that is every address, and the mDNS name when it is advertised."""
+        from .alpaca.local_addresses import lan_addresses, mdns_name
+
+        host = str(self._server.http.host)
+        everywhere = host in ("", "0.0.0.0", "::")
+        return {"listening_on": host, "only_this_machine": host in ("127.0.0.1", "::1", "localhost"),
+                "addresses": lan_addresses(ipv6=False) if everywhere else [host],
+                "mdns_name": mdns_name() if self._server.advertiser is not None else None}
 
     def listen_problem(self, host: str, port: int) -> str | None:
         """Why a restart could not listen on ``host:port`` (None: it could; the port held now counts as free)."""

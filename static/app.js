@@ -1076,8 +1076,35 @@
     $("hosts-star").classList.toggle("hidden", !off);
   }
 
+  // "Connect your software": what a program on another computer uses now (the running server's port, its
+  // discovery and addresses), and what a restart would change (the saved network settings).
+  function fillConnect(info) {
+    const c = info.connect || { addresses: [] };
+    const hosts = c.only_this_machine ? [c.listening_on] : [...(c.mdns_name ? [c.mdns_name] : []), ...c.addresses];
+    const name = (info.devices.find((d) => d.number === device) || { name: "Telescope " + device }).name;
+    setText("connect-discovery", c.only_this_machine
+      ? "alpaca-zwo listens on this computer only (" + c.listening_on + "): programs on other computers cannot reach it. " +
+        "To let them, set Listen address to 0.0.0.0 under Settings \u203a Network and restart alpaca-zwo."
+      : info.discovery_port
+        ? "Alpaca discovery is on (UDP " + info.discovery_port + "): in N.I.N.A. (Equipment \u203a Telescope) press the " +
+          "refresh button and choose \u201c" + name + "\u201d; other Alpaca programs find it the same way."
+        : "Alpaca discovery is off: programs will not find alpaca-zwo by themselves; add it by hand as below.", "small");
+    setText("connect-manual", "By hand (Alpaca, manual entry): host " + (hosts.length ? hosts.join(" or ") : "this computer's address") +
+      ", port " + info.port + ", device type Telescope, device number " + device + ".", "small");
+    const saved = info.configured;
+    const pending = [];
+    if (saved.port !== 0 && saved.port !== info.port) pending.push("port " + saved.port);
+    if ((saved.discovery_port || null) !== (info.discovery_port || null)) {
+      pending.push(saved.discovery_port ? "discovery on UDP " + saved.discovery_port : "discovery off");
+    }
+    if (saved.host !== c.listening_on) pending.push("listen address " + saved.host);
+    setText("connect-pending", pending.length ? "Saved, in effect after a restart: " + pending.join(", ") +
+      ". Until then the values above are the ones in effect." : "", pending.length ? "small bad" : "small bad hidden");
+  }
+
   function fillServer(info) {
     state.server = info;
+    fillConnect(info);
     $("n-host").value = info.configured.host;
     $("n-port").value = info.configured.port;
     $("n-disc").value = info.configured.discovery_port;
