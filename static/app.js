@@ -261,6 +261,8 @@
     setText("sky-orientation", "Looking up, facing " + bottom + " (" + towards + "): " + bottom + " at the bottom, east on the " +
       (up === 0 ? "left" : "right") + ". Rings at 0\u00b0, 30\u00b0 and 60\u00b0 altitude.", "muted small");
     setText("sky-turn", "Face " + other + " (" + (towards === "the pole" ? "the equator" : "the pole") + ")", "ghost");
+    // The pad faces the way the chart does: east on the chart's east side, north towards its north.
+    $("jog").classList.toggle("turned", up === 180);
     if (up === view.up && sky.bg) return;
     view.up = up;
     $("sky").replaceChildren();
@@ -418,6 +420,8 @@
     setText("az", pos ? fmtAz(pos.az) : "\u2013", "big");
     setText("lst", fmtHours(s.time.lst));
     setText("ha", pos ? fmtHa(pos.ha) : "\u2013");
+    setText("jog-pos", pos ? "RA " + fmtHours(pos.ra) + "\nDec " + fmtDeg(pos.dec) + "\nAlt " + fmtDeg(pos.alt) +
+      "\nAz " + fmtAz(pos.az) : "", "jog-pos mono small");
 
     const pierNames = { east: "east (looking west)", west: "west (looking east)", unknown: "unknown" };
     setText("pier", s.pier_side ? pierNames[s.pier_side] : "\u2013");
@@ -663,9 +667,19 @@
 
   // ---------------------------------------------------------------- controls
 
-  function stopJog() {
+  // A tap on the pad is a step that shows: the move runs at least STEP_MS (5′ at 20× sidereal); a press held
+  // longer stops on release. STOP, Escape, leaving the page or another press stop at once (now: true).
+  const STEP_MS = 1000;
+
+  function stopJog(now) {
     const jog = state.jogging;
     if (!jog) return;
+    const left = now === true ? 0 : jog.started + STEP_MS - Date.now();
+    if (left > 0) {
+      if (!jog.timer) jog.timer = setTimeout(() => stopJog(true), left);
+      return;
+    }
+    clearTimeout(jog.timer);
     state.jogging = null;
     jog.button.classList.remove("pressed");
     // The mount must stop even if this request races the press: send it regardless, quietly.
@@ -680,11 +694,11 @@
         if (button.setPointerCapture) {
           try { button.setPointerCapture(ev.pointerId); } catch (_) { /* not capturable: fine */ }
         }
-        stopJog();
+        stopJog(true);
         const axis = Number(button.dataset.axis);
         const multiple = Number($("jog-speed").value);
         const rate = Number(button.dataset.sign) * multiple * state.server.sidereal_deg_s;
-        state.jogging = { axis, button };
+        state.jogging = { axis, button, started: Date.now(), timer: null };
         button.classList.add("pressed");
         action("move", { axis, rate }).then(() => poll(true)).catch((err) => {
           if (state.jogging && state.jogging.button === button) {
@@ -708,8 +722,8 @@
         if (ev.key === " " || ev.key === "Enter") stopJog();
       });
     }
-    window.addEventListener("blur", stopJog);
-    document.addEventListener("visibilitychange", () => { if (document.hidden) stopJog(); });
+    window.addEventListener("blur", () => stopJog(true));
+    document.addEventListener("visibilitychange", () => { if (document.hidden) stopJog(true); });
     $("jog-stop").addEventListener("click", stopMount);
     const speed = $("jog-speed");
     for (const m of state.server.jog_multiples) {
@@ -719,12 +733,20 @@
       speed.append(opt);
     }
     speed.value = "20";
+    const hint = () => setText("jog-hint", "Hold a direction to move; a tap steps about " +
+      fmtStep(Number(speed.value) * state.server.sidereal_deg_s * STEP_MS / 1000) + ".", "muted small");
+    speed.addEventListener("change", hint);
+    hint();
+  }
+
+  function fmtStep(deg) {
+    return deg >= 1 ? deg.toFixed(1) + "\u00b0" : deg * 60 >= 1 ? (deg * 60).toFixed(0) + "\u2032" : (deg * 3600).toFixed(0) + "\u2033";
   }
 
   // STOP says whether it reached the mount: the server answers only once the stop was written to it. The
   // motion line (handset.js) says "Stopping…" from the tap and where the mount came to rest once it has.
   async function stopMount() {
-    stopJog();
+    stopJog(true);
     document.dispatchEvent(new Event("alpaca-zwo-stop"));
     try {
       await action("abort");
