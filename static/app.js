@@ -800,17 +800,27 @@
     note.classList.toggle("hidden", !text);
   }
 
-  const GEO_INSTEAD = " Instead, type the latitude and longitude above (degrees; longitude east positive), " +
-    "or copy them from your phone's GPS or compass app (or long-press your position in a map app), then press Save site.";
+  // Where the browser can answer (https, or localhost): the location buttons show only there (canLocate).
+  const canLocate = () => Boolean(navigator.geolocation && window.isSecureContext);
 
-  function geoInsecureText() {
-    return "Browsers share their location only with pages opened over https or as localhost on the same " +
-      "machine, and this page is " + location.origin + ", so this browser will not tell it." + GEO_INSTEAD;
+  function geoInstead(where) {
+    return " Instead, type the latitude and longitude " + (where || "above") + " (degrees; longitude east positive), " +
+      "or copy them from your phone's GPS or compass app (or long-press your position in a map app), then press Save site.";
   }
 
-  function geoErrorText(err) {
+  function geoInsecureText(where) {
+    return "Browsers share their location only with pages opened over https or as localhost on the same " +
+      "machine, and this page is " + location.origin + ", so this browser will not tell it." + geoInstead(where);
+  }
+
+  function geoErrorText(err, where) {
     return (err.code === 1 ? "This browser was not allowed to share its location."
-      : "This browser could not find its location (" + err.message + ").") + GEO_INSTEAD;
+      : "This browser could not find its location (" + err.message + ").") + geoInstead(where);
+  }
+
+  // A saved site says whether it reached the mount: the server's reply says whether the mount is connected.
+  function siteSaved(reply) {
+    return reply.connected ? "Site saved and sent to the mount." : "Site saved; the mount gets it when it is connected.";
   }
 
   function useBrowserLocation() {
@@ -933,7 +943,9 @@
       const send = () => post(base + "/settings", body).catch((err) => {
         throw explain ? new Error(explain(err.message)) : err;
       });
-      const result = await run(label, send, false, form);
+      const said = typeof label === "function"; // words from the reply (siteSaved)
+      const result = await run(said ? "Site saved." : label, send, said, form);
+      if (result && said) message(label(result), "info");
       if (result) fillSettings(result);
     };
   }
@@ -1017,9 +1029,12 @@
   }
 
   function bindSettings() {
-    $("form-site").addEventListener("submit", saveSettings("Site saved and sent to the mount.", () => ({
+    $("form-site").addEventListener("submit", saveSettings(siteSaved, () => ({
       site: { latitude: num("site-lat"), longitude: num("site-lon"), elevation: num("site-elev") },
     })));
+    // On a page that cannot ask the browser, the button is not offered: the note says what to do instead.
+    $("btn-geo").classList.toggle("hidden", !canLocate());
+    if (!canLocate()) geoNote(geoInsecureText());
     $("form-time").addEventListener("submit", saveSettings("Time source saved (in effect now).", () => ({
       time: { source: $("t-source").value },
     })));
@@ -1276,7 +1291,7 @@
   window.alpacaZwo = Object.assign(window.alpacaZwo || {}, {
     base, request, post, message, clearMessages, poll, fmtHours, fmtDeg, fmtAz,
     project, unproject, R, MIN_ALT, // the chart's projection, for skychart.js
-    geoInsecureText, geoErrorText, // why a browser will not tell its position, for fieldline.js
+    geoInsecureText, geoErrorText, canLocate, siteSaved, // the site from this device, for fieldline.js
     onStatus: (listener) => { statusListeners.push(listener); },
   });
 
