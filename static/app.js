@@ -1260,9 +1260,28 @@
     pad();
   }
 
+  // The browser's own validation bubble is grey and white whatever the page's mode (no page CSS reaches it):
+  // a field the browser finds invalid is said beside its form instead, in the page's colours (red in night
+  // mode), the first such field of a submission only, and focused.
+  function bindValidation() {
+    let said = false;
+    document.addEventListener("invalid", (ev) => {
+      ev.preventDefault();
+      if (said) return;
+      said = true;
+      setTimeout(() => { said = false; }, 0);
+      const field = ev.target;
+      const label = field.closest("label");
+      const name = label && label.firstChild ? label.firstChild.textContent.trim() : field.name || field.id;
+      message(name + ": " + field.validationMessage, "error", field.form || field);
+      field.focus();
+    }, true);
+  }
+
   async function start() {
     padForTheBar();
     bindNight();
+    bindValidation();
     bindTurn();
     orient(0);
     $("trace-download").href = base + "/trace.txt";

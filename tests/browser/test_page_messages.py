@@ -193,3 +193,27 @@ def test_a_horizon_refusal_names_the_line_the_person_sees(server_factory: Server
     said = driver.find_element(By.CSS_SELECTOR, beside).text
     assert said.startswith("Horizon not saved: horizon line 4 altitude"), said
     assert "setup page" not in said and "limits." not in said and "point" not in said, said
+
+
+@pytest.mark.parametrize("size", ["phone", "desktop"])
+def test_a_field_the_browser_refuses_is_said_beside_its_form_in_the_pages_colours(
+        server_factory: ServerFactory, browser: WebDriver, size: str) -> None:
+    """Chrome's own validation bubble is grey and white, night mode or not: the page says it instead."""
+    scene = Scene(server_factory, browser, size, "Vega")  # the phone in night mode
+    driver = scene.driver
+    elevation = driver.find_element(By.ID, "site-elev")
+    tap(driver, elevation)
+    elevation.clear()
+    tap(driver, driver.find_element(By.CSS_SELECTOR, "#form-site button[type='submit']"))
+    beside = "#form-site + .refusal"
+    WebDriverWait(driver, TIMEOUT).until(lambda d: d.find_elements(By.CSS_SELECTOR, beside))
+    said = driver.find_element(By.CSS_SELECTOR, beside).text
+    assert said.startswith("Elevation m: ") and len(said) > len("Elevation m: "), said
+    assert driver.execute_script("return document.activeElement.id") == "site-elev"
+    colour = driver.execute_script("return getComputedStyle(document.querySelector(arguments[0])).color", beside)
+    red, green, blue = (int(v) for v in re.findall(r"\d+", colour)[:3])
+    if size == "phone":
+        assert red > 0 and green == 0 and blue == 0, colour  # night mode: red light only
+    else:
+        assert red > green and red > blue, colour
+    assert scene.client.settings()["site"]["elevation"] == 46.0  # nothing was sent
