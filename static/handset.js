@@ -217,12 +217,14 @@
     } catch (_) { /* the status poll reports an unreachable server */ }
   }
 
-  // The name the person used when it is one of the object's common names ("Omega Centauri", not "NGC 5139"):
-  // the card, the GoTo messages, the progress and arrival lines and so the log keep it; the catalogue's
-  // designation stays on the card's second line.
+  // The name the person used when it is one of the object's common names and the catalogue's name is a
+  // designation ("Omega Centauri", not "NGC 5139"; "LMC" stays "Large Magellanic Cloud"): the card, the GoTo
+  // messages, the progress and arrival lines and so the log keep it; the designation stays on the card's
+  // second line.
   function keepName(obj, typed) {
     const fold = (t) => (t || "").normalize("NFKD").replace(/[\u0300-\u036f]/g, "").toLowerCase().replace(/\s+/g, " ").trim();
-    const named = (obj.common_names || []).find((n) => fold(n) === fold(typed));
+    const designation = /\d/.test(obj.name);
+    const named = designation && (obj.common_names || []).find((n) => fold(n) === fold(typed));
     if (named && named !== obj.name) {
       obj.designation = obj.name;
       obj.name = named;
