@@ -28,13 +28,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from . import __version__
-from ._exceptions import AlpacaError, InvalidOperation, LinkError, MountReplyError, ProtocolError
+from ._exceptions import AlpacaError, AlpacaZwoError, InvalidOperation, LinkError, MountReplyError, ProtocolError
 from .clients import ClientActivity, ClientKey, current_client
 from .config.settings import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .motion import Motion, MotionKind
 from .mount.state import MountSettings, MountState
 from .mount.timekeeping import ClockView
-from .sky import SIDEREAL_DEG_S, flip_line_deg
+from .sky import SIDEREAL_DEG_S
 from .telescope.stored_settings import CHECKS as STORED_CHECKS
 from .zwo.link import LinkCounters, LinkStatus, Priority, TraceEntry
 from .zwo.survey import SurveyContext, SurveyReport, run_survey
@@ -58,6 +58,8 @@ class ServerParts(Protocol):
     telescopes: list[Telescope]
     host_guard: HostGuard
     discovery: Any  # a DiscoveryResponder with a ``port``, or None when discovery is off
+    http: Any  # the Alpaca HttpServer: the ``host`` it listens on and its bound ``port``
+    advertiser: Any  # the mDNS advertiser, or None when mDNS is off
     gpsd: Any  # bridges.gpsd.GpsdSite (a ``status()`` dict) when site.gpsd is set, else None
 
     @property
@@ -80,6 +82,8 @@ class SafetyStatusSource(Protocol):
     their ages, the recent events (``observatory.SafetyWatch.status``)."""
 
     def status(self) -> dict[str, Any]: ...
+
+    def ask_once(self, role: str, url: str, timeout: float = 5.0) -> tuple[bool, str]: ...
 
 
 class FacadeProvider(Protocol):
@@ -296,17 +300,14 @@ class DeviceFacade:
         request_mode(self._telescope, name)
         log.info("setup page: mount mode set to %s", name)
 
-    def flip_line(self) -> tuple[bool, float]:
-        """The mount's "track past" flag and its flip line in degrees past the meridian
-        (``sky.flip_line_deg``, the rule DestinationSideOfPier predicts with): by the mount's own setting
-        when it has been read, else the configured one."""
+    def meridian_setting(self) -> tuple[bool, float]:
+        """The mount's "track past" flag and its limit in degrees (negative: before the meridian): by the
+        mount's own setting when it has been read, else the configured one."""
         cached = self.cached_mount_settings
         if cached is not None and cached.meridian is not None:
-            track_after, limit = cached.meridian.track_after, float(cached.meridian.limit_degrees)
-        else:
-            limits = self._server.settings.limits
-            track_after, limit = limits.meridian_track_past, limits.meridian_limit_deg
-        return track_after, flip_line_deg(limit, track_after)
+            return cached.meridian.track_after, float(cached.meridian.limit_degrees)
+        limits = self._server.settings.limits
+        return limits.meridian_track_past, limits.meridian_limit_deg
 
     def mount_mode(self) -> dict[str, Any] | None:
         """The mode now in effect, the one requested and, while they differ, the warning that the mount
@@ -517,6 +518,17 @@ class ServerFacade:
     def port(self) -> int:
         return self._server.port
 
+    def connect_info(self) -> dict[str, Any]:
+        """How a program on another computer reaches this server now: the address it listens on, this
+        machine's LAN addresses when that is every address, and the mDNS name when it is advertised."""
+        from .alpaca.local_addresses import lan_addresses, mdns_name
+
+        host = str(self._server.http.host)
+        everywhere = host in ("", "0.0.0.0", "::")
+        return {"listening_on": host, "only_this_machine": host in ("127.0.0.1", "::1", "localhost"),
+                "addresses": lan_addresses(ipv6=False) if everywhere else [host],
+                "mdns_name": mdns_name() if self._server.advertiser is not None else None}
+
     def listen_problem(self, host: str, port: int) -> str | None:
         """Why a restart could not listen on ``host:port`` (None: it could; the port held now counts as free)."""
         from .alpaca.listen_check import listen_problem
@@ -552,6 +564,18 @@ class ServerFacade:
             return {"safe": True, "state": "off", "source": "", "since": None, "reason": "", "monitor": None,
                     "roof": None, "events": []}
         return watch.status()
+
+    def test_safety_device(self, role: str, url: str) -> dict[str, Any]:
+        """Ask a SafetyMonitor (role "monitor") or a Dome ("roof") once, as the interlock would: ``{"ok": True,
+        "safe", "answer"}`` or ``{"ok": False, "error"}``. Sends traffic only when the user asks (Test)."""
+        watch = self._server.safety_watch
+        if watch is None:
+            return {"ok": False, "error": "the observatory interlock is not running"}
+        try:
+            safe, answer = watch.ask_once(role, url)
+        except AlpacaZwoError as exc:
+            return {"ok": False, "error": str(exc)}
+        return {"ok": True, "safe": safe, "answer": answer}
 
     def find_safety_devices(self, host: str = "") -> list[dict[str, Any]]:
         """Alpaca discovery (a broadcast on this machine's IPv4 networks, or a query to ``host`` only), then

@@ -282,6 +282,21 @@ def flip_line_deg(limit_deg: float, track_past: bool) -> float:
     return limit_deg if limit_deg < 0.0 or track_past else 0.0
 
 
+#: Where a ZWO mount stops tracking past the meridian when it may not track past it (ZWO's ``:STa`` text:
+#: "if you choose to stop, the stop angle is 1 degree after meridian"; field notes §5.3).
+MERIDIAN_STOP_DEG = 1.0
+
+
+def tracking_stop_deg(limit_deg: float, track_past: bool) -> float:
+    """Degrees of hour angle past the meridian at which the mount stops tracking, for its meridian setting:
+    a negative limit before the meridian whatever the flag; "track past" on, the limit (1° at least); off,
+    1° past. The mount does not flip by itself (ZWO: automatic flip "temporarily not supported"): a GOTO
+    after this point is the flip. The emulator's stop and the page's meridian line use this one rule."""
+    if limit_deg < 0.0:
+        return limit_deg
+    return max(limit_deg, MERIDIAN_STOP_DEG) if track_past else MERIDIAN_STOP_DEG
+
+
 def goto_pier_side(target_ha_hours: float, current_side: PierSide, meridian_limit_deg: float) -> PierSide:
     """The pier side a German mount ends up on after a GOTO to ``target_ha_hours``.
 

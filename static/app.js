@@ -62,19 +62,28 @@
 
   // ---------------------------------------------------------------- messages
 
-  // Messages are toasts in the dock (index.html) above STOP: they never push a control. A success clears
-  // the errors shown before it (the situation they described has changed: the log keeps them all);
-  // a success fades after a few seconds, an error stays until dismissed or the next success.
-  function message(text, kind) {
-    const area = $("messages");
+  // One message place, in STOP's bar (index.html): the page is padded by the bar's height, so a message
+  // never lies over a control, and a phone's object sheet sits above it. The newest message replaces the one
+  // before; every message also goes into the server's log, which is their history (the Log panel, the
+  // download). A refusal caused by a control (near: the button or its form) is shown beside that control
+  // instead, where the eye already is. A success fades after a few seconds and clears every error shown
+  // before it (the situation they described has changed); an error stays until dismissed, replaced by a
+  // newer message, or the selection changes.
+  let fadeTimer = null;
+
+  function message(text, kind, near) {
     const type = kind || "error";
-    if (type === "info") for (const old of area.querySelectorAll(".msg.error")) old.remove();
-    for (const old of area.querySelectorAll(".msg")) {
-      if (old.dataset.text === text) old.remove(); // the same words again: shown once, as the newest
+    keepInLog(text, type);
+    clearTimeout(fadeTimer);
+    const area = $("messages");
+    area.replaceChildren();
+    for (const old of document.querySelectorAll(".refusal")) old.remove(); // the newest only, there too
+    if (near && type === "error") {
+      refusalBeside(near).textContent = text;
+      return;
     }
     const box = document.createElement("div");
     box.className = "msg " + type;
-    box.dataset.text = text;
     if (type === "error") box.setAttribute("role", "alert");
     const span = document.createElement("span");
     span.textContent = text;
@@ -86,19 +95,53 @@
     close.addEventListener("click", () => box.remove());
     box.append(span, close);
     area.append(box);
-    while (area.children.length > 4) area.firstChild.remove();
-    if (type === "info") setTimeout(() => box.remove(), 3500);
+    if (type === "info") fadeTimer = setTimeout(() => box.remove(), 3500);
   }
 
-  // Run a control; show its error, refresh the status at once so the effect is visible.
-  async function run(label, fn, quietOk) {
+  // The refusal line beside a control: a new one under its row or form.
+  function refusalBeside(near) {
+    const box = document.createElement("p");
+    box.className = "refusal";
+    box.setAttribute("role", "alert");
+    (near.closest("form, .row") || near).after(box);
+    return box;
+  }
+
+  /** Clear the message place and every refusal: what they described belongs to the last selection. */
+  function clearMessages() {
+    clearTimeout(fadeTimer);
+    $("messages").replaceChildren();
+    for (const box of document.querySelectorAll(".refusal")) box.remove();
+  }
+
+  function keepInLog(text, level) {
+    post("/setup/api/log", { text, level }).catch(() => { /* the server is unreachable: the message says so */ });
+  }
+
+  // A control's failure said as what did not happen ("Horizon saved." → "Horizon not saved"); the reason follows.
+  const FAILED = {
+    "Mount connected.": "The mount did not connect", "Released the mount.": "The mount was not released",
+    "Parking\u2026": "The mount did not park", "Unparked.": "The mount did not unpark",
+    "Going home\u2026": "The mount did not go home", "Tracking on.": "Tracking did not turn on",
+    "Tracking off.": "Tracking did not turn off", "Discovery done.": "Nothing was found",
+    "Test done.": "The test was not made",
+  };
+
+  function failedText(label) {
+    if (FAILED[label]) return FAILED[label];
+    const done = / (saved|set|sent)\b/.exec(label);
+    return done ? label.slice(0, done.index) + " not " + done[1] : label.replace(/[.\u2026]$/, "") + " did not work";
+  }
+
+  // Run a control; show its error (beside near, when given), refresh the status at once so the effect is visible.
+  async function run(label, fn, quietOk, near) {
     try {
       const result = await fn();
       if (!quietOk) message(label, "info");
       poll(true);
       return result;
     } catch (err) {
-      message(label.replace(/\.$/, "") + " failed: " + err.message, "error");
+      message(failedText(label) + ": " + err.message, "error", near);
       return null;
     }
   }
@@ -218,6 +261,8 @@
     setText("sky-orientation", "Looking up, facing " + bottom + " (" + towards + "): " + bottom + " at the bottom, east on the " +
       (up === 0 ? "left" : "right") + ". Rings at 0\u00b0, 30\u00b0 and 60\u00b0 altitude.", "muted small");
     setText("sky-turn", "Face " + other + " (" + (towards === "the pole" ? "the equator" : "the pole") + ")", "ghost");
+    // The pad faces the way the chart does: east on the chart's east side, north towards its north.
+    $("jog").classList.toggle("turned", up === 180);
     if (up === view.up && sky.bg) return;
     view.up = up;
     $("sky").replaceChildren();
@@ -375,6 +420,8 @@
     setText("az", pos ? fmtAz(pos.az) : "\u2013", "big");
     setText("lst", fmtHours(s.time.lst));
     setText("ha", pos ? fmtHa(pos.ha) : "\u2013");
+    setText("jog-pos", pos ? "RA " + fmtHours(pos.ra) + "\nDec " + fmtDeg(pos.dec) + "\nAlt " + fmtDeg(pos.alt) +
+      "\nAz " + fmtAz(pos.az) : "", "jog-pos mono small");
 
     const pierNames = { east: "east (looking west)", west: "west (looking east)", unknown: "unknown" };
     setText("pier", s.pier_side ? pierNames[s.pier_side] : "\u2013");
@@ -395,11 +442,8 @@
       : s.at_park ? "parked" : s.at_home ? "at home" : "no";
     setText("park", s.connected ? park : "\u2013", s.at_park || s.at_home ? "yes" : "");
 
-    const m = s.meridian;
-    let mer = m.limit_deg === 0 ? "flips at the meridian"
-      : "flip line " + Math.abs(m.limit_deg) + "\u00b0 " + (m.limit_deg > 0 ? "past" : "before") + " the meridian";
-    if (m.minutes_to_limit !== null) mer += m.minutes_to_limit >= 0 ? "; reached in " + fmtMinutes(m.minutes_to_limit) : "; passed " + fmtMinutes(-m.minutes_to_limit) + " ago";
-    setText("meridian", mer);
+    setText("meridian", meridianText(s.meridian));
+    setText("mer-nina", ninaAdvice(s.meridian), "muted small");
     // Name what is really driven: the built-in emulator, or the mount at the --device/config URL.
     const driven = s.link.emulated ? "built-in emulator" : s.link.url;
     setText("mount", (s.mount ? "ZWO " + s.mount.model + ", firmware " + s.mount.firmware + (s.flags.mode ? ", " + s.flags.mode : "") + " \u2014 " : "") + driven);
@@ -458,6 +502,32 @@
     renderBridges(s.bridges || []);
     renderSafety(s.safety);
     drawSky(s);
+  }
+
+  // The meridian as the mount will meet it, from its own settings (the server's sky.tracking_stop_deg): where
+  // tracking stops, and that the mount does not flip by itself (docs/meridian.md).
+  function meridianText(m) {
+    const stop = m.stop_deg;
+    const at = stop === 0 ? "at the meridian" : Math.abs(stop) + "\u00b0 " + (stop > 0 ? "past" : "before") + " the meridian";
+    let text = "tracking stops " + at + " (" + (m.track_after || stop < 0 ? "the mount's limit" : "the mount's rule without \u201ctrack past\u201d") +
+      "); the mount does not flip by itself: a GoTo past the meridian flips it";
+    if (m.minutes_to_stop !== null) {
+      text += m.minutes_to_stop >= 0 ? "; stops in " + fmtMinutes(m.minutes_to_stop) : "; stopped " + fmtMinutes(-m.minutes_to_stop) + " ago";
+    }
+    return text;
+  }
+
+  // What N.I.N.A.'s Meridian Flip settings must be for its flip to come before the mount stops tracking.
+  function ninaAdvice(m) {
+    const where = "For N.I.N.A. (Options \u203a Imaging \u203a Meridian Flip): ";
+    const minutes = Math.round(m.stop_minutes);
+    if (minutes <= 0) {
+      return where + "tracking stops " + (-minutes) + " min before the meridian, so set Pause before meridian to " +
+        (1 - minutes) + " min or more; N.I.N.A. then flips after the meridian.";
+    }
+    return where + "its flip must come before tracking stops, " + minutes + " min after the meridian: set Max minutes " +
+      "after meridian to " + (minutes - 1) + " or less, and Minutes after meridian below that." +
+      (minutes < 11 ? " To keep N.I.N.A.'s usual 5 and 10 min instead, tick Track past the meridian with a limit of 3\u00b0 (12 min) or more." : "");
   }
 
   // One plain message when the mount cannot be reached: what happened and what to try (no exception text).
@@ -600,9 +670,19 @@
 
   // ---------------------------------------------------------------- controls
 
-  function stopJog() {
+  // A tap on the pad is a step that shows: the move runs at least STEP_MS (5′ at 20× sidereal); a press held
+  // longer stops on release. STOP, Escape, leaving the page or another press stop at once (now: true).
+  const STEP_MS = 1000;
+
+  function stopJog(now) {
     const jog = state.jogging;
     if (!jog) return;
+    const left = now === true ? 0 : jog.started + STEP_MS - Date.now();
+    if (left > 0) {
+      if (!jog.timer) jog.timer = setTimeout(() => stopJog(true), left);
+      return;
+    }
+    clearTimeout(jog.timer);
     state.jogging = null;
     jog.button.classList.remove("pressed");
     // The mount must stop even if this request races the press: send it regardless, quietly.
@@ -617,18 +697,18 @@
         if (button.setPointerCapture) {
           try { button.setPointerCapture(ev.pointerId); } catch (_) { /* not capturable: fine */ }
         }
-        stopJog();
+        stopJog(true);
         const axis = Number(button.dataset.axis);
         const multiple = Number($("jog-speed").value);
         const rate = Number(button.dataset.sign) * multiple * state.server.sidereal_deg_s;
-        state.jogging = { axis, button };
+        state.jogging = { axis, button, started: Date.now(), timer: null };
         button.classList.add("pressed");
         action("move", { axis, rate }).then(() => poll(true)).catch((err) => {
           if (state.jogging && state.jogging.button === button) {
             state.jogging = null;
             button.classList.remove("pressed");
           }
-          message("Move failed: " + err.message);
+          message("The move did not start: " + err.message);
         });
       });
       for (const type of ["pointerup", "pointercancel", "lostpointercapture", "pointerleave"]) {
@@ -645,9 +725,9 @@
         if (ev.key === " " || ev.key === "Enter") stopJog();
       });
     }
-    window.addEventListener("blur", stopJog);
-    document.addEventListener("visibilitychange", () => { if (document.hidden) stopJog(); });
-    $("jog-stop").addEventListener("click", () => run("Stopped.", () => action("abort")));
+    window.addEventListener("blur", () => stopJog(true));
+    document.addEventListener("visibilitychange", () => { if (document.hidden) stopJog(true); });
+    $("jog-stop").addEventListener("click", stopMount);
     const speed = $("jog-speed");
     for (const m of state.server.jog_multiples) {
       const opt = document.createElement("option");
@@ -656,15 +736,27 @@
       speed.append(opt);
     }
     speed.value = "20";
+    const hint = () => setText("jog-hint", "Hold a direction to move; a tap steps about " +
+      fmtStep(Number(speed.value) * state.server.sidereal_deg_s * STEP_MS / 1000) + ".", "muted small");
+    speed.addEventListener("change", hint);
+    hint();
   }
 
-  // STOP says whether it reached the mount: the server answers only once the stop was written to it.
+  function fmtStep(deg) {
+    return deg >= 1 ? deg.toFixed(1) + "\u00b0" : deg * 60 >= 1 ? (deg * 60).toFixed(0) + "\u2032" : (deg * 3600).toFixed(0) + "\u2033";
+  }
+
+  // STOP says whether it reached the mount: the server answers only once the stop was written to it. The
+  // motion line (handset.js) says "Stopping…" from the tap and where the mount came to rest once it has.
   async function stopMount() {
-    stopJog();
+    stopJog(true);
+    document.dispatchEvent(new Event("alpaca-zwo-stop"));
     try {
       await action("abort");
-      message("Stopped: the mount acknowledged.", "info");
+      document.dispatchEvent(new CustomEvent("alpaca-zwo-stop-sent", { detail: { ok: true } }));
+      keepInLog("STOP pressed on the page: the mount acknowledged the stop.", "info");
     } catch (err) {
+      document.dispatchEvent(new CustomEvent("alpaca-zwo-stop-sent", { detail: { ok: false } }));
       message("STOP: " + err.message, "error"); // the server says whether it reached the mount
     }
     poll(true);
@@ -678,7 +770,7 @@
     window.addEventListener("keydown", (ev) => {
       if (ev.key === "Escape" && !ev.repeat) stopMount();
     }, true);
-    $("btn-connect").addEventListener("click", () => run("Mount connected.", () => action("connect")));
+    $("btn-connect").addEventListener("click", (ev) => run("Mount connected.", () => action("connect"), false, ev.currentTarget));
     $("btn-disconnect").addEventListener("click", () => run("Released the mount.", () => action("disconnect")));
     $("btn-park").addEventListener("click", () => run("Parking\u2026", () => action("park")));
     $("btn-unpark").addEventListener("click", () => run("Unparked.", () => action("unpark")));
@@ -711,17 +803,27 @@
     note.classList.toggle("hidden", !text);
   }
 
-  const GEO_INSTEAD = " Instead, type the latitude and longitude above (degrees; longitude east positive), " +
-    "or copy them from your phone's GPS or compass app (or long-press your position in a map app), then press Save site.";
+  // Where the browser can answer (https, or localhost): the location buttons show only there (canLocate).
+  const canLocate = () => Boolean(navigator.geolocation && window.isSecureContext);
 
-  function geoInsecureText() {
-    return "Browsers share their location only with pages opened over https or as localhost on the same " +
-      "machine, and this page is " + location.origin + ", so this browser will not tell it." + GEO_INSTEAD;
+  function geoInstead(where) {
+    return " Instead, type the latitude and longitude " + (where || "above") + " (degrees; longitude east positive), " +
+      "or copy them from your phone's GPS or compass app (or long-press your position in a map app), then press Save site.";
   }
 
-  function geoErrorText(err) {
+  function geoInsecureText(where) {
+    return "Browsers share their location only with pages opened over https or as localhost on the same " +
+      "machine, and this page is " + location.origin + ", so this browser will not tell it." + geoInstead(where);
+  }
+
+  function geoErrorText(err, where) {
     return (err.code === 1 ? "This browser was not allowed to share its location."
-      : "This browser could not find its location (" + err.message + ").") + GEO_INSTEAD;
+      : "This browser could not find its location (" + err.message + ").") + geoInstead(where);
+  }
+
+  // A saved site says whether it reached the mount: the server's reply says whether the mount is connected.
+  function siteSaved(reply) {
+    return reply.connected ? "Site saved and sent to the mount." : "Site saved; the mount gets it when it is connected.";
   }
 
   function useBrowserLocation() {
@@ -806,8 +908,11 @@
     }
   }
 
+  // The horizon's points, and the line of the text each came from (state.horizonLines), so that a refusal
+  // of "point 1" reads as the line the person sees (comments and blank lines count).
   function parseHorizon(text) {
     const points = [];
+    state.horizonLines = [];
     for (const [i, line] of text.split("\n").entries()) {
       const t = line.trim();
       if (!t || t.startsWith("#")) continue;
@@ -816,21 +921,34 @@
         throw new Error("horizon line " + (i + 1) + " is not \u201cazimuth altitude\u201d: " + t);
       }
       points.push(parts);
+      state.horizonLines.push(i + 1);
     }
     return points;
   }
 
-  function saveSettings(label, build) {
+  function horizonWords(text) {
+    return text.replace(/limits\.horizon: point (\d+)/, (_, i) => "horizon line " + (state.horizonLines[Number(i)] || Number(i) + 1))
+      .replace("limits.horizon: ", "horizon: ");
+  }
+
+  // explain: the server's refusal put in the form's own words (optional).
+  function saveSettings(label, build, explain) {
     return async (ev) => {
       ev.preventDefault();
+      const form = ev.target;
       let body;
       try {
         body = build();
       } catch (err) {
-        message(err.message);
+        message(err.message, "error", form);
         return;
       }
-      const result = await run(label, () => post(base + "/settings", body));
+      const send = () => post(base + "/settings", body).catch((err) => {
+        throw explain ? new Error(explain(err.message)) : err;
+      });
+      const said = typeof label === "function"; // words from the reply (siteSaved)
+      const result = await run(said ? "Site saved." : label, send, said, form);
+      if (result && said) message(label(result), "info");
       if (result) fillSettings(result);
     };
   }
@@ -858,6 +976,25 @@
       li.textContent = e.time.replace("T", " ").replace(/\.\d+\+00:00$/, " UTC") + ": " + e.text;
       events.append(li);
     }
+  }
+
+  // Ask the monitor or roof typed in once, before saving it: its answer, or why it did not answer, under the
+  // buttons (the URL as the server reads it: a missing http:// is added, as Save does).
+  async function testSafetyDevice(role, field) {
+    const box = $("o-test");
+    box.textContent = "Asking\u2026";
+    box.className = "small";
+    const result = await run("Test done.", () => post("/setup/api/safety/test", { role, url: $(field).value.trim() }),
+      true, $("btn-test-" + role));
+    if (!result) {
+      box.className = "small hidden";
+      return;
+    }
+    const who = role === "monitor" ? "The monitor" : "The roof";
+    box.textContent = result.ok
+      ? who + " at " + result.url + " answered " + result.answer + ": " + (result.safe ? "motion would be allowed." : "motion would be refused.")
+      : who + " at " + result.url + " did not answer: " + result.error + ".";
+    box.className = "small " + (result.ok && result.safe ? "yes" : "bad");
   }
 
   async function findSafetyDevices() {
@@ -895,9 +1032,12 @@
   }
 
   function bindSettings() {
-    $("form-site").addEventListener("submit", saveSettings("Site saved and sent to the mount.", () => ({
+    $("form-site").addEventListener("submit", saveSettings(siteSaved, () => ({
       site: { latitude: num("site-lat"), longitude: num("site-lon"), elevation: num("site-elev") },
     })));
+    // On a page that cannot ask the browser, the button is not offered: the note says what to do instead.
+    $("btn-geo").classList.toggle("hidden", !canLocate());
+    if (!canLocate()) geoNote(geoInsecureText());
     $("form-time").addEventListener("submit", saveSettings("Time source saved (in effect now).", () => ({
       time: { source: $("t-source").value },
     })));
@@ -914,7 +1054,7 @@
     })));
     $("form-horizon").addEventListener("submit", saveSettings("Horizon saved.", () => ({
       limits: { min_altitude_deg: num("h-min"), horizon: parseHorizon($("h-profile").value) },
-    })));
+    }), horizonWords));
     $("form-park").addEventListener("submit", saveSettings("Park position saved.", () => ({
       park: { mode: $("park-mode").value, ha_hours: num("park-ha"), dec_deg: num("park-dec") },
     })));
@@ -926,6 +1066,8 @@
                 unreachable_s: num("o-unreachable"), on_unsafe: $("o-on-unsafe").value },
     })));
     $("btn-find-devices").addEventListener("click", findSafetyDevices);
+    $("btn-test-monitor").addEventListener("click", () => testSafetyDevice("monitor", "o-monitor"));
+    $("btn-test-roof").addEventListener("click", () => testSafetyDevice("roof", "o-roof"));
     $("form-device").addEventListener("submit", saveSettings("Device name saved.", () => ({
       device: { name: $("d-name").value.trim() },
     })));
@@ -935,14 +1077,15 @@
         host: $("n-host").value.trim(), port: num("n-port"), discovery_port: num("n-disc"),
         mdns: $("n-mdns").checked, location: $("n-location").value,
       };
-      const result = await run("Network settings saved; restart the server to apply them.", () => post("/setup/api/server", body));
+      const result = await run("Network settings saved; restart the server to apply them.",
+        () => post("/setup/api/server", body), false, ev.target);
       if (result) fillServer(result);
     });
     $("form-hosts").addEventListener("submit", async (ev) => {
       ev.preventDefault();
       const names = $("n-hosts").value.split(/[\s,]+/).filter((n) => n);
       const result = await run("Allowed host names saved (in effect now).",
-        () => post("/setup/api/server", { allowed_hosts: names }));
+        () => post("/setup/api/server", { allowed_hosts: names }), false, ev.target);
       if (result) fillServer(result);
     });
     $("form-networks").addEventListener("submit", async (ev) => {
@@ -950,7 +1093,7 @@
       const lines = (id) => $(id).value.split(/[\s,]+/).filter((n) => n);
       const networks = { zwo_port: lines("n-zwo-networks"), stellarium: lines("n-stellarium-networks") };
       const result = await run("Bridge networks saved (in effect now).",
-        () => post("/setup/api/server", { allowed_networks: networks }));
+        () => post("/setup/api/server", { allowed_networks: networks }), false, ev.target);
       if (result) fillServer(result);
     });
   }
@@ -973,8 +1116,35 @@
     $("hosts-star").classList.toggle("hidden", !off);
   }
 
+  // "Connect your software": what a program on another computer uses now (the running server's port, its
+  // discovery and addresses), and what a restart would change (the saved network settings).
+  function fillConnect(info) {
+    const c = info.connect || { addresses: [] };
+    const hosts = c.only_this_machine ? [c.listening_on] : [...(c.mdns_name ? [c.mdns_name] : []), ...c.addresses];
+    const name = (info.devices.find((d) => d.number === device) || { name: "Telescope " + device }).name;
+    setText("connect-discovery", c.only_this_machine
+      ? "alpaca-zwo listens on this computer only (" + c.listening_on + "): programs on other computers cannot reach it. " +
+        "To let them, set Listen address to 0.0.0.0 under Settings \u203a Network and restart alpaca-zwo."
+      : info.discovery_port
+        ? "Alpaca discovery is on (UDP " + info.discovery_port + "): in N.I.N.A. (Equipment \u203a Telescope) press the " +
+          "refresh button and choose \u201c" + name + "\u201d; other Alpaca programs find it the same way."
+        : "Alpaca discovery is off: programs will not find alpaca-zwo by themselves; add it by hand as below.", "small");
+    setText("connect-manual", "By hand (Alpaca, manual entry): host " + (hosts.length ? hosts.join(" or ") : "this computer's address") +
+      ", port " + info.port + ", device type Telescope, device number " + device + ".", "small");
+    const saved = info.configured;
+    const pending = [];
+    if (saved.port !== 0 && saved.port !== info.port) pending.push("port " + saved.port);
+    if ((saved.discovery_port || null) !== (info.discovery_port || null)) {
+      pending.push(saved.discovery_port ? "discovery on UDP " + saved.discovery_port : "discovery off");
+    }
+    if (saved.host !== c.listening_on) pending.push("listen address " + saved.host);
+    setText("connect-pending", pending.length ? "Saved, in effect after a restart: " + pending.join(", ") +
+      ". Until then the values above are the ones in effect." : "", pending.length ? "small bad" : "small bad hidden");
+  }
+
   function fillServer(info) {
     state.server = info;
+    fillConnect(info);
     $("n-host").value = info.configured.host;
     $("n-port").value = info.configured.port;
     $("n-disc").value = info.configured.discovery_port;
@@ -1032,7 +1202,7 @@
       const pre = $("log");
       const atBottom = pre.scrollTop + pre.clientHeight >= pre.scrollHeight - 4;
       for (const e of data.entries) {
-        const when = new Date(e.time * 1000).toISOString().slice(11, 19);
+        const when = new Date(e.time * 1000).toISOString().slice(11, 19) + " UTC"; // as the download, zone named
         pre.append(when + " " + e.level.padEnd(7) + " " + e.logger + ": " + e.message + "\n");
         state.logAfter = e.seq;
       }
@@ -1093,9 +1263,28 @@
     pad();
   }
 
+  // The browser's own validation bubble is grey and white whatever the page's mode (no page CSS reaches it):
+  // a field the browser finds invalid is said beside its form instead, in the page's colours (red in night
+  // mode), the first such field of a submission only, and focused.
+  function bindValidation() {
+    let said = false;
+    document.addEventListener("invalid", (ev) => {
+      ev.preventDefault();
+      if (said) return;
+      said = true;
+      setTimeout(() => { said = false; }, 0);
+      const field = ev.target;
+      const label = field.closest("label");
+      const name = label && label.firstChild ? label.firstChild.textContent.trim() : field.name || field.id;
+      message(name + ": " + field.validationMessage, "error", field.form || field);
+      field.focus();
+    }, true);
+  }
+
   async function start() {
     padForTheBar();
     bindNight();
+    bindValidation();
     bindTurn();
     orient(0);
     $("trace-download").href = base + "/trace.txt";
@@ -1122,9 +1311,9 @@
   // The small hook the hand controller (handset.js) and the sky chart build on; the rest stays private.
   const statusListeners = [];
   window.alpacaZwo = Object.assign(window.alpacaZwo || {}, {
-    base, request, post, message, poll, fmtHours, fmtDeg, fmtAz,
+    base, request, post, message, clearMessages, poll, fmtHours, fmtDeg, fmtAz,
     project, unproject, R, MIN_ALT, // the chart's projection, for skychart.js
-    geoInsecureText, geoErrorText, // why a browser will not tell its position, for fieldline.js
+    geoInsecureText, geoErrorText, canLocate, siteSaved, // the site from this device, for fieldline.js
     onStatus: (listener) => { statusListeners.push(listener); },
   });
 

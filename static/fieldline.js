@@ -72,8 +72,9 @@
     const defaultSite = Boolean(site.default) && !(gps && gps.site_from_gps);
     setText("clock-line", text);
     show("btn-device-time", wrong);
-    setText("site-line", defaultSite ? "The site is still the default (Greenwich)." : "");
-    show("btn-device-site", defaultSite);
+    setText("site-line", defaultSite ? "The site is still the default (Greenwich): where is the telescope?" : "");
+    show("btn-device-site", defaultSite && hook.canLocate());
+    show("field-note", defaultSite && fl.tip);
     show("clock-row", Boolean(text));
     show("site-row", defaultSite);
     show("field-line", Boolean(text) || defaultSite);
@@ -129,30 +130,41 @@
     }
   }
 
+  // The first-run site form sits in the line itself: latitude, longitude and elevation where the prompt is,
+  // and this device's position only where the browser can answer (https or localhost).
   function useDevicePosition() {
     const note = $("field-note");
-    const explain = (text) => { note.textContent = text; note.classList.toggle("hidden", !text); };
-    if (!navigator.geolocation || !window.isSecureContext) {
-      explain(hook.geoInsecureText());
-      return;
-    }
+    const explain = (text) => { note.textContent = text; fl.tip = Boolean(text); note.classList.toggle("hidden", !text); };
     explain("");
-    navigator.geolocation.getCurrentPosition(async (p) => {
-      const site = { latitude: Number(p.coords.latitude.toFixed(6)), longitude: Number(p.coords.longitude.toFixed(6)) };
-      if (p.coords.altitude !== null) site.elevation = Math.round(p.coords.altitude);
-      try {
-        await hook.post(hook.base + "/settings", { site });
-        hook.message("Site set from this device's position and sent to the mount.", "info");
-        hook.poll(true);
-      } catch (err) {
-        hook.message("Setting the site failed: " + err.message, "error");
-      }
-    }, (err) => explain(hook.geoErrorText(err)), { enableHighAccuracy: true, timeout: 20000 });
+    navigator.geolocation.getCurrentPosition((p) => {
+      $("fs-lat").value = p.coords.latitude.toFixed(6);
+      $("fs-lon").value = p.coords.longitude.toFixed(6);
+      if (p.coords.altitude !== null) $("fs-elev").value = p.coords.altitude.toFixed(0);
+      saveSite();
+    }, (err) => explain(hook.geoErrorText(err, "here")), { enableHighAccuracy: true, timeout: 20000 });
+  }
+
+  async function saveSite(ev) {
+    if (ev) ev.preventDefault();
+    const site = { latitude: Number($("fs-lat").value), longitude: Number($("fs-lon").value),
+      elevation: Number($("fs-elev").value) };
+    try {
+      const reply = await hook.post(hook.base + "/settings", { site });
+      hook.message(hook.siteSaved(reply), "info");
+      hook.poll(true);
+    } catch (err) {
+      hook.message("Site not saved: " + err.message, "error", $("form-first-site"));
+    }
   }
 
   function start() {
     $("btn-device-time").addEventListener("click", useDeviceTime);
     $("btn-device-site").addEventListener("click", useDevicePosition);
+    $("form-first-site").addEventListener("submit", saveSite);
+    if (!hook.canLocate()) {
+      $("field-note").textContent = hook.geoInsecureText("here");
+      fl.tip = true;
+    }
     hook.onStatus(render);
   }
 

@@ -32,6 +32,7 @@
     ours: null, // {name, kind} of the slew this page started, to name it on arrival
     seen: null, // the running motion seen in the feed: {kind, target, name}
     approach: [], // [ms, degrees left]
+    stopping: null, // {acked: ms} from a tap on STOP until the mount is at rest (acked: 0 until it has the stop)
     searchTimer: null,
     searchSeq: 0,
   };
@@ -71,24 +72,9 @@
     return (deg * 3600).toFixed(0) + "\u2033";
   }
 
-  function fmtClock(iso) {
-    if (!iso) return "\u2013";
-    return new Date(iso).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit", hourCycle: "h23" });
-  }
-
   // "2026-11-26T19:02:00+09:00" (the server's site time) → "19:02": the clock as read at the site.
   function siteClock(iso) {
     return iso ? iso.slice(11, 16) : "\u2013";
-  }
-
-  function offsetMinutes(iso) {
-    const m = /([+-])(\d\d):(\d\d)$/.exec(iso || "");
-    return m ? (m[1] === "-" ? -1 : 1) * (Number(m[2]) * 60 + Number(m[3])) : 0;
-  }
-
-  function zoneText(minutes) {
-    const a = Math.abs(minutes);
-    return "UTC" + (minutes < 0 ? "\u2212" : "+") + Math.floor(a / 60) + (a % 60 ? ":" + String(a % 60).padStart(2, "0") : "");
   }
 
   function where(pos) {
@@ -202,11 +188,13 @@
 
   // from: "chart" when tapped or chosen on the sky chart (a phone then shows the card as a sheet over the page).
   async function select(id, from) {
+    hook.clearMessages(); // what they said was about the last object, or what was done before it
     hs.matches = [];
     renderMatches();
     cancelConfirm();
+    const typed = $("find").value;
     try {
-      const obj = await hook.request(hook.base + "/object?id=" + encodeURIComponent(id));
+      const obj = keepName(await hook.request(hook.base + "/object?id=" + encodeURIComponent(id)), typed);
       hs.selected = obj;
       $("find").value = obj.name;
       renderSelection();
@@ -223,10 +211,25 @@
     try {
       const fresh = await hook.request(hook.base + "/object?id=" + encodeURIComponent(obj.id));
       if (hs.selected && hs.selected.id === fresh.id) {
-        hs.selected = fresh;
+        hs.selected = keepName(fresh, hs.selected.name);
         renderSelection();
       }
     } catch (_) { /* the status poll reports an unreachable server */ }
+  }
+
+  // The name the person used when it is one of the object's common names and the catalogue's name is a
+  // designation ("Omega Centauri", not "NGC 5139"; "LMC" stays "Large Magellanic Cloud"): the card, the GoTo
+  // messages, the progress and arrival lines and so the log keep it; the designation stays on the card's
+  // second line.
+  function keepName(obj, typed) {
+    const fold = (t) => (t || "").normalize("NFKD").replace(/[\u0300-\u036f]/g, "").toLowerCase().replace(/\s+/g, " ").trim();
+    const designation = /\d/.test(obj.name);
+    const named = designation && (obj.common_names || []).find((n) => fold(n) === fold(typed));
+    if (named && named !== obj.name) {
+      obj.designation = obj.name;
+      obj.name = named;
+    }
+    return obj;
   }
 
   function fact(dl, term, value, cls) {
@@ -238,23 +241,35 @@
     dl.append(dt, dd);
   }
 
-  function riseSet(o, clock) {
+  const EVENT_WORDS = { rise: "rises", transit: "highest", set: "sets" };
+  const ZONE_SOURCE = { site: "", server: ", the server's zone", longitude: " from the longitude, no daylight saving" };
+
+  // Tonight as it happens, in the site's clock with its zone named once (the server gives the zone of
+  // the site's own coordinates, daylight saving included): from dark (the Sun 18° down) to dawn, the
+  // object's rise, highest point and set in between, in time order, and its best time while it is dark.
+  function tonightText(o) {
     if (o.never_up) return "never rises here";
-    if (o.always_up) return "always up; transit " + clock("transit");
-    return "rise " + clock("rise") + " \u00b7 transit " + clock("transit") + " \u00b7 set " + clock("set");
+    const t = o.tonight;
+    if (!t) return "\u2013";
+    const now = Date.now();
+    const items = [[t.start, Date.parse(t.start) <= now + 60000 ? (t.dark ? "dark now" : "darkest now")
+      : (t.dark ? "dark " : "darkest ") + siteClock(t.start)]];
+    for (const e of t.events) items.push([e.at, EVENT_WORDS[e.what] + " " + siteClock(e.at)]);
+    items.push([t.end, (t.dark ? "dawn " : "brightening ") + siteClock(t.end)]);
+    if (t.best) { // the highest it stands while dark: said at the event it falls on, else on its own
+      const best = "(" + t.best_altitude.toFixed(0) + "\u00b0, best)";
+      const at = items.find((i) => i[0] === t.best);
+      if (at) at[1] += " " + best;
+      else items.push([t.best, "best " + siteClock(t.best) + " (" + t.best_altitude.toFixed(0) + "\u00b0)"]);
+    }
+    items.sort((x, y) => Date.parse(x[0]) - Date.parse(y[0]));
+    const plan = items.map((i) => i[1]).join(" \u00b7 ") + (t.best ? "" : " \u00b7 not up while it is dark");
+    return (t.dark ? "" : "no full darkness tonight: ") + plan +
+      " (" + (o.site_zone || "site time") + (ZONE_SOURCE[o.site_zone_source] || "") + ")";
   }
 
-  // Rise, transit and set at the site's clock, its zone named; and in this browser's zone when it differs
-  // (a page opened from another time zone than the telescope's).
   function times(dl, o) {
-    const site = o.site_times || {};
-    fact(dl, "Tonight", riseSet(o, (k) => siteClock(site[k])) + (o.never_up ? "" : " (" + (o.site_zone || "site") + ", site time)"));
-    const at = site.transit || site.rise || site.set;
-    if (!at || o.never_up) return;
-    const browser = -new Date(at).getTimezoneOffset();
-    if (browser !== offsetMinutes(at)) {
-      fact(dl, "Your zone", riseSet(o, (k) => fmtClock(o[k])) + " (" + zoneText(browser) + ", this browser)");
-    }
+    fact(dl, "Tonight", tonightText(o));
   }
 
   function renderSelection() {
@@ -262,7 +277,8 @@
     show("selection", Boolean(o));
     if (!o) return;
     $("sel-name").textContent = o.name;
-    const names = [...(o.common_names || []).slice(0, 2), ...(o.aliases || []).filter((a) => !a.startsWith("HIP")).slice(0, 2)];
+    const names = [...(o.designation ? [o.designation] : []), ...(o.common_names || []).filter((n) => n !== o.name).slice(0, 2),
+      ...(o.aliases || []).filter((a) => !a.startsWith("HIP")).slice(0, 2)];
     $("sel-kind").textContent = o.kind + (o.magnitude !== null && o.magnitude !== undefined ? " \u00b7 magnitude " + o.magnitude.toFixed(1) : "") +
       (names.length ? " \u00b7 " + names.join(", ") : "");
     const dl = $("sel-facts");
@@ -275,6 +291,7 @@
     const verdict = o.verdict || {};
     const up = Boolean(verdict.reachable);
     fact(dl, "Limits", verdict.says || "\u2013", up ? "yes" : "bad");
+    if (o.phase) fact(dl, "Phase", o.phase.words + ", " + o.phase.lit_percent.toFixed(0) + "% lit");
     times(dl, o);
     fact(dl, "GoTo lands", o.destination_side_of_pier ? "pier " + PIER_WORDS[o.destination_side_of_pier] : "\u2013 (mount not connected)");
     $("btn-goto").classList.toggle("caution", !up);
@@ -290,13 +307,16 @@
     // Named before the request: a status poll can show the new slew before the POST's reply arrives,
     // and a short slew can end within that poll ("Slewing to the target", "Arrived at the target").
     const before = hs.ours;
-    if (verb === "goto") hs.ours = { name: o.name, started: Date.now() };
+    if (verb === "goto") {
+      hs.ours = { name: o.name, started: Date.now() };
+      hs.stopping = null; // a new GoTo ends the wait for the last stop's rest: its progress takes the line
+    }
     let reply;
     try {
       reply = await postRaw(hook.base + "/" + verb, body);
     } catch (err) {
       hs.ours = before;
-      hook.message(err.message, "error");
+      hook.message(err.message, "error", $("btn-goto"));
       return;
     }
     if (verb === "goto" && reply.status !== 200) hs.ours = before;
@@ -311,11 +331,11 @@
     cancelConfirm();
     if (reply.status !== 200) {
       const words = reply.data.error || "HTTP " + reply.status;
-      hook.message((verb === "goto" ? "GoTo " : "Sync on ") + o.name + " refused: " + words, "error");
+      hook.message((verb === "goto" ? "GoTo " : "Sync on ") + o.name + " refused: " + words, "error", $("btn-goto"));
       setArrival("", "");
       return;
     }
-    hs.selected = Object.assign({}, o, reply.data);
+    hs.selected = keepName(Object.assign({}, o, reply.data), o.name);
     renderSelection();
     if (verb === "goto") {
       setArrival("", "");
@@ -363,31 +383,74 @@
     return s < 90 ? ", about " + Math.max(1, Math.round(s)) + " s" : ", about " + Math.round(s / 60) + " min";
   }
 
+  // STOP is honest through braking: the mount keeps moving for a second or more after it has the stop, and
+  // Alpaca's Slewing (the status's "slewing") stays true until it is at rest. So a stop pressed here shows
+  // "Stopping…" from the tap, and the line says where the mount came to rest only from a reading taken
+  // after the mount acknowledged the stop and with Slewing false; a slew stopped from elsewhere waits
+  // for rest the same way before it says where the mount is.
+  function stopPressed() {
+    hs.stopping = { acked: 0 };
+    braking("Stopping\u2026");
+  }
+
+  function stopAcknowledged(ok) {
+    if (!hs.stopping) return;
+    if (ok) hs.stopping.acked = Date.now();
+    else {
+      hs.stopping = null; // the stop did not reach the mount: the status line and STOP's error say so
+      show("progress", false);
+    }
+  }
+
+  function braking(text) {
+    $("progress").textContent = text;
+    show("progress", true);
+    setArrival("", "");
+  }
+
+  /** A reading to judge the stop by: the poll was sent after the mount acknowledged it. */
+  function afterTheStop(s) {
+    const stop = hs.stopping;
+    return Boolean(stop && stop.acked && s.client_timing && s.client_timing.sent >= stop.acked);
+  }
+
   function onStatus(s) {
     const m = s.motion;
+    if (hs.stopping && !afterTheStop(s)) return; // "Stopping…" until a reading the stop can be judged by
     const running = Boolean(m && m.active && s.connected);
-    if (running) {
-      const name = m.kind === "slew" && hs.ours ? hs.ours.name : null;
-      if (!hs.seen || hs.seen.kind !== m.kind) hs.approach = [];
-      const since = hs.seen && hs.seen.kind === m.kind ? hs.seen.since : Date.now();
-      hs.seen = { kind: m.kind, target: m.target, name, since };
-      let text = (KIND_WORDS[m.kind] || "Moving to") + " " + (name || (m.kind === "park" ? "the park position" : m.kind === "find home" ? "home" : "the target"));
-      if (m.target && s.position) {
-        const left = separation(s.position.ra, s.position.dec, m.target.ra, m.target.dec);
-        text += ": " + fmtAngle(left) + " left" + eta(left);
-      }
-      $("progress").textContent = text;
-      show("progress", true);
-      setArrival("", "");
+    if (running && !hs.stopping) {
+      progress(s, m);
+      return;
+    }
+    if (s.connected && s.slewing && (hs.stopping || (hs.seen && m && m.error))) {
+      braking(hs.stopping ? "Stopping: the mount has the stop and is braking\u2026" : "Stopping: the mount is braking\u2026");
       return;
     }
     show("progress", false);
-    if (hs.seen && m) ended(s, m, hs.seen);
+    if (hs.seen && m) ended(s, m, hs.seen, Boolean(hs.stopping));
+    else if (hs.stopping) setArrival("Stopped" + (s.position ? ": at rest at " + where(s.position) : "") + ".", "");
+    hs.stopping = null;
     hs.seen = null;
     hs.approach = [];
   }
 
-  function ended(s, m, seen) {
+  function progress(s, m) {
+    const name = m.kind === "slew" && hs.ours ? hs.ours.name : null;
+    if (!hs.seen || hs.seen.kind !== m.kind) hs.approach = [];
+    const since = hs.seen && hs.seen.kind === m.kind ? hs.seen.since : Date.now();
+    hs.seen = { kind: m.kind, target: m.target, name, since };
+    let text = (KIND_WORDS[m.kind] || "Moving to") + " " + (name || (m.kind === "park" ? "the park position" : m.kind === "find home" ? "home" : "the target"));
+    if (m.target && s.position) {
+      const left = separation(s.position.ra, s.position.dec, m.target.ra, m.target.dec);
+      text += ": " + fmtAngle(left) + " left" + eta(left);
+    }
+    $("progress").textContent = text;
+    show("progress", true);
+    setArrival("", "");
+  }
+
+  // How a motion ended, said once the mount is at rest; byStop: the STOP pressed on this page ended it.
+  function ended(s, m, seen, byStop) {
     if (hs.ours && hs.ours.started <= seen.since) hs.ours = null; // a newer GoTo keeps its name
     const pos = s.position;
     const what = seen.name || (seen.kind === "park" ? "the park position" : seen.kind === "find home" ? "home" : "the target");
@@ -397,10 +460,15 @@
       setArrival(verb + (pos ? ": " + where(pos) : "") + ".", "ok");
       return;
     }
-    const why = m.error === "stopped" ? "it was stopped (STOP, or another program stopped it)"
+    const short = "Stopped before reaching " + what + (left !== null ? ", " + fmtAngle(left) + " away" : "");
+    const rest = pos ? ". At rest at " + where(pos) + "." : ".";
+    if (byStop && m.error === "stopped") {
+      setArrival(short + rest, ""); // what the person asked for: said plainly, not as a fault
+      return;
+    }
+    const why = m.error === "stopped" ? "another program (or another page) stopped it"
       : m.error === "replaced" ? "another slew replaced it" : m.error || "the mount stopped short";
-    setArrival("Stopped before reaching " + what + (left !== null ? ", " + fmtAngle(left) + " away" : "") +
-      ", because " + why + (pos ? ". Now at " + where(pos) : "") + ".", "bad");
+    setArrival(short + ", because " + why + rest, "bad");
   }
 
   // ------------------------------------------------------------------ the phone's sheet
@@ -436,6 +504,8 @@
     $("arrival-close").addEventListener("click", () => setArrival("", ""));
     PHONE.addEventListener("change", () => { if (!PHONE.matches) placeCard(false); });
     hook.onStatus(onStatus);
+    document.addEventListener("alpaca-zwo-stop", stopPressed);
+    document.addEventListener("alpaca-zwo-stop-sent", (ev) => stopAcknowledged(ev.detail.ok));
     setInterval(refreshSelection, REFRESH_MS);
   }
 

@@ -27,6 +27,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone, tzinfo
 from typing import Any
+from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from . import coordinates, data_text, deepsky
 from .naming import (
@@ -54,10 +55,12 @@ __all__ = [
     "SiteZone",
     "SkyObject",
     "apparent",
+    "ephem_body",
     "find",
     "lookup",
     "search",
     "site_zone",
+    "zone_at",
 ]
 
 MAX_QUERY = 80  # characters: the longest name or coordinate form anyone types
@@ -384,11 +387,12 @@ def _by_id(kind: str, rest: str) -> SkyObject | None:
 
 @dataclass(frozen=True)
 class SiteZone:
-    """The zone the page gives times in: the server's own when it fits the site's longitude, else the
-    longitude's nominal zone (``source`` says which)."""
+    """The zone the page gives times in: the site's own, named in the zone database, when its coordinates
+    can be looked up; else the server's own when it fits the site's longitude, else the longitude's
+    nominal zone (``source`` says which: "site", "server" or "longitude")."""
 
     zone: tzinfo
-    source: str  # "server" or "longitude"
+    source: str
 
     def label(self, when: datetime) -> str:
         offset = when.astimezone(self.zone).utcoffset() or timedelta(0)
@@ -398,14 +402,42 @@ class SiteZone:
         name = when.astimezone(self.zone).tzname()
         return f"{name}, {text}" if name and not name.startswith(("UTC", "+", "-")) else text
 
+    @property
+    def name(self) -> str | None:
+        """The zone database's name ("Australia/Sydney"), when the zone is one of its zones."""
+        key = getattr(self.zone, "key", None)
+        return key if isinstance(key, str) else None
+
 
 SERVER_ZONE_SLACK_H = 3.0  # zones reach this far from their longitude's (China's +8 at 75° E: 3 h)
 
 
-def site_zone(longitude: float, when: datetime, server_zone: tzinfo | None = None) -> SiteZone:
-    """The site's zone: a Pi at the telescope has its zone set (with daylight saving), so the server's zone
-    when its offset is within ``SERVER_ZONE_SLACK_H`` of the longitude's mean solar time; otherwise (a
-    container in UTC, a server far away) the longitude's nominal zone, UTC + round(longitude / 15) h."""
+@functools.lru_cache(maxsize=64)
+def zone_at(latitude: float, longitude: float) -> ZoneInfo | None:
+    """The zone in force at a place, with its daylight saving rules: the name tzfpy (offline, the timezone
+    boundary builder's polygons) gives the coordinates, read from the IANA database by zoneinfo (the tzdata
+    package on Windows). None where tzfpy is not installed (32-bit ARM: no wheel) or knows no zone there."""
+    try:
+        from tzfpy import get_tz
+    except ModuleNotFoundError:
+        return None
+    name = get_tz(longitude, latitude)
+    try:
+        return ZoneInfo(name) if name else None
+    except (ZoneInfoNotFoundError, ValueError):  # a name this Python's zone database lacks
+        return None
+
+
+def site_zone(longitude: float, when: datetime, server_zone: tzinfo | None = None,
+              latitude: float | None = None) -> SiteZone:
+    """The site's zone. Its own (``zone_at``) when the latitude is given and the place can be looked up: a
+    server in a UTC container, or a Pi left on another zone, must not move the site's clock. Otherwise a Pi
+    at the telescope has its zone set (with daylight saving), so the server's zone when its offset is within
+    ``SERVER_ZONE_SLACK_H`` of the longitude's mean solar time; else the longitude's nominal zone,
+    UTC + round(longitude / 15) h, with no daylight saving."""
+    own = zone_at(latitude, longitude) if latitude is not None else None
+    if own is not None:
+        return SiteZone(own, "site")
     local = server_zone or datetime.now().astimezone().tzinfo
     assert local is not None
     offset = when.astimezone(local).utcoffset() or timedelta(0)
@@ -428,7 +460,7 @@ def observer(site: Site, when: datetime) -> Any:
     return obs
 
 
-def _ephem_body(obj: SkyObject) -> Any:
+def ephem_body(obj: SkyObject) -> Any:
     import ephem
 
     if obj.body is not None:
@@ -444,7 +476,7 @@ def _ephem_body(obj: SkyObject) -> Any:
 def apparent(obj: SkyObject, site: Site, when: datetime) -> Apparent:
     """Topocentric apparent RA/Dec of date, Alt/Az, and the rise/transit/set around ``when``."""
     obs = observer(site, when)
-    target = _ephem_body(obj)
+    target = ephem_body(obj)
     target.compute(obs)
     ra_h = math.degrees(float(target.ra)) / 15.0
     return Apparent(ra_h % 24.0, math.degrees(float(target.dec)), math.degrees(float(target.alt)),

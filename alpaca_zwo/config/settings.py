@@ -235,6 +235,8 @@ def _device_url(device_type: str) -> Check:
         if not text:
             return ""
         example = f"http://192.168.1.30:11111/api/v1/{device_type}/0"
+        if "://" not in text:  # "192.168.1.30:11111/api/v1/..." as the page's label writes it: plain http
+            text = "http://" + text
         parts = urllib.parse.urlsplit(text)
         if parts.scheme.lower() not in ("http", "https") or not parts.netloc:
             raise _Invalid(f"must be an http:// or https:// URL of an Alpaca {device_type} such as {example}")

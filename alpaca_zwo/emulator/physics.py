@@ -277,10 +277,7 @@ class Mechanics:
         """Degrees past the meridian (``Hemisphere.past_meridian``) at which tracking stops (field
         notes §5.3, ZWO v2.1 p.18)."""
         settings = self._flash.persist.meridian
-        limit = float(settings.limit_degrees)
-        if limit < 0.0:
-            return limit
-        return max(limit, 1.0) if settings.track_after else 1.0
+        return sky.tracking_stop_deg(float(settings.limit_degrees), settings.track_after)
 
     def _note_side(self) -> None:
         """Which side the Dec axis is on; exactly at the pole it stays the side it came from."""

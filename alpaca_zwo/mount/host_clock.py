@@ -62,8 +62,9 @@ class HostClockStatus:
 
     synchronised: bool | None
     method: str  # how it was read: "adjtimex", "w32tm", "ALPACA_ZWO_HOST_CLOCK", "none"
-    detail: str  # one line for the log and the page
+    detail: str  # one line for the log and the page, in a person's words
     last_synchronised: datetime | None = None
+    kernel: str = ""  # the kernel's own words (adjtimex's state and flags), for the log only
 
     @property
     def trusted(self) -> bool:
@@ -114,12 +115,13 @@ def interpret_timex(state: int, maxerror_us: int, status: int, stamp: datetime |
     if state < 0:
         return HostClockStatus(None, "none", "adjtimex failed: the clock is trusted", stamp)
     flags = ", STA_UNSYNC set" if status & STA_UNSYNC else ""
-    if maxerror_us < MAX_ERROR_LIMIT_US:
-        return HostClockStatus(True, "adjtimex", f"the kernel reports the clock synchronised (maximum error "
-                                                 f"{maxerror_us / 1000:.0f} ms{flags})", stamp)
     state_text = "TIME_ERROR" if state == TIME_ERROR else f"state {state}"
-    return HostClockStatus(False, "adjtimex", f"the kernel reports the clock not synchronised ({state_text}{flags}, "
-                                              f"maximum error {maxerror_us / 1e6:.0f} s)", stamp)
+    kernel = f"adjtimex: {state_text}{flags}, maximum error {maxerror_us / 1000:.0f} ms"
+    if maxerror_us < MAX_ERROR_LIMIT_US:
+        return HostClockStatus(True, "adjtimex", f"this computer's clock is synchronised to a time server (to within "
+                                                 f"{maxerror_us / 1000:.0f} ms)", stamp, kernel)
+    return HostClockStatus(False, "adjtimex", f"this computer's clock is not synchronised to a time server (it may be "
+                                              f"up to {maxerror_us / 1e6:.0f} s off)", stamp, kernel)
 
 
 _LEAP = re.compile(r"^[^:\r\n]*:\s*(\d)\s*\(")

@@ -191,7 +191,7 @@ class TimeKeeper:
         previous = self.now() if self._source is TimeSource.MOUNT else None
         self._set(TimeSource.MOUNT, _Anchor(mount_utc, at), reason)
         if previous is None or abs((self.now() - previous).total_seconds()) > TOLERANCE_S:
-            log.warning("time: %s", reason)  # once per adoption, not at every reconnect
+            log.warning("time: %s (%s)", reason, status.kernel or status.method)  # once per adoption
 
     def set_by_client(self, utc: datetime, who: str) -> None:
         """A client or a person set the time: the strongest source, kept until another sets it."""

@@ -172,6 +172,15 @@ class SafetyWatch:
         reading.ok, reading.answer, reading.error = ok, answer, ""
         reading.answered_at, reading.answered_utc = time.monotonic(), _utc_now()
 
+    def ask_once(self, role: str, url: str, timeout: float = 5.0) -> tuple[bool, str]:
+        """One question to a device as the watch asks it (Connected=true first), for the page's Test button:
+        whether its answer allows motion, and the answer ("IsSafe=true"); RemoteError when it does not answer.
+        Changes nothing: the watch's own devices and verdict are untouched."""
+        reading = DeviceReading(role, url)
+        device = RemoteDevice(url, client_id=self.client_id, timeout=timeout)
+        self._connect(device, reading)
+        return (self._is_safe if role == "monitor" else self._shutter)(device, reading)
+
     @staticmethod
     def _connect(device: RemoteDevice, reading: DeviceReading) -> None:
         """Connected=true; a device that refuses it may still answer, so the refusal is only noted."""

@@ -24,7 +24,7 @@ from .goto import GotoResource, GotoVerdict, ObjectDetails, ObjectSearch, SyncRe
 from .guide import guide_routes
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
-from .observatory import SafetyDiscoverResource, SafetyResource
+from .observatory import SafetyDiscoverResource, SafetyResource, SafetyTestResource
 from .settings import ServerResource, SettingsResource
 from .skyview import SkyResource
 from .status import StatusResource
@@ -52,6 +52,7 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/log.txt", LogText(web.logs)),
         ("/setup/api/safety", SafetyResource(web)),
         ("/setup/api/safety/discover", SafetyDiscoverResource(web)),
+        ("/setup/api/safety/test", SafetyTestResource(web)),
         ("/setup/api/telescope/{number}/status", StatusResource(web)),
         ("/setup/api/telescope/{number}/settings", SettingsResource(web)),
         ("/setup/api/telescope/{number}/action/{name}", ActionResource(web)),

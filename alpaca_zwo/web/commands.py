@@ -15,9 +15,10 @@ from typing import Any
 
 import falcon
 
+from .._exceptions import ERR_LINK, AlpacaError
 from ..facade import DeviceFacade, TimeSetReport, current_client
 from .context import Resource
-from .http import ApiError, api_errors, check_same_origin, flag, integer, iso, number, send
+from .http import ApiError, api_errors, check_same_origin, connect_trouble, flag, integer, iso, number, send
 
 log = logging.getLogger(__name__)
 
@@ -65,8 +66,19 @@ def _set_park(d: DeviceFacade, body: dict[str, Any]) -> dict[str, Any]:
     return {"park": dataclasses.asdict(d.set_park())}
 
 
+def _connect(d: DeviceFacade, body: dict[str, Any]) -> None:
+    """Connect; a mount not found is said as where it was looked for and what to check."""
+    try:
+        d.set_connected(True)
+    except AlpacaError as exc:
+        if exc.number != ERR_LINK:
+            raise
+        log.warning("setup page: connecting failed: %s", exc.message)
+        raise ApiError(409, connect_trouble(d.url)) from None
+
+
 ACTIONS: dict[str, Action] = {
-    "connect": lambda d, body: d.set_connected(True),
+    "connect": _connect,
     "disconnect": lambda d, body: d.set_connected(False),
     "abort": lambda d, body: d.abort(),
     "move": _move,

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
-from datetime import datetime
+from datetime import datetime, timezone
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
@@ -77,6 +77,35 @@ def _place(device: DeviceFacade, obj: SkyObject) -> Apparent:
     return place
 
 
+def _tonight(device: DeviceFacade, obj: SkyObject, zone: SiteZone) -> dict[str, Any]:
+    """Tonight's plan in the site's clock: the dark window, the object's events in it in time order, its best
+    time (``catalogue/tonight.py``)."""
+    from ..catalogue import tonight
+
+    lat, lon, elevation = device.site()
+    night = tonight.tonight(obj, _objects().Site(lat, lon, elevation), device.utc_now())
+    return {"start": _site_time(night.start, zone), "end": _site_time(night.end, zone), "dark": night.dark,
+            "events": [{"what": name, "at": _site_time(at, zone)} for name, at in night.events],
+            "best": _site_time(night.best, zone), "best_altitude": night.best_altitude}
+
+
+def _moon_phase(device: DeviceFacade) -> dict[str, Any]:
+    """The Moon's phase now: how much of it is lit and its name ("waxing crescent"), from PyEphem."""
+    import ephem
+
+    when = ephem.Date(device.utc_now().astimezone(timezone.utc).replace(tzinfo=None))
+    moon = ephem.Moon(when)
+    lit = float(moon.moon_phase) * 100.0
+    waxing = ephem.next_full_moon(when) < ephem.next_new_moon(when)
+    if lit < 3.0 or lit > 97.0:
+        words = "new moon" if lit < 3.0 else "full moon"
+    else:
+        shape = "crescent" if lit < 47.0 else "quarter" if lit <= 53.0 else "gibbous"
+        words = ("first " if waxing else "last ") + shape if shape == "quarter" else (
+            "waxing " if waxing else "waning ") + shape
+    return {"lit_percent": round(lit, 1), "waxing": waxing, "words": words}
+
+
 def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
     """What the page shows for a selection: the place now, whether a GoTo may go there, and how; the
     rise/transit/set instants in UTC and in the site's zone (``objects.site_zone``), with its name."""
@@ -85,16 +114,19 @@ def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
     verdict = device.goto_verdict(place.ra_hours, place.dec_deg)  # the GoTo's own check (POST …/goto)
     side = device.destination_side_of_pier(place.ra_hours, place.dec_deg)
     now = device.utc_now()
-    zone: SiteZone = _objects().site_zone(device.site()[1], now)
+    latitude, longitude, _ = device.site()
+    zone: SiteZone = _objects().site_zone(longitude, now, latitude=latitude)
     return {
         **obj.to_json(),
         "ra": place.ra_hours, "dec": place.dec_deg, "frame": "topocentric apparent (equinox of date)",
         "altitude": place.altitude, "azimuth": place.azimuth,
         "horizon_floor": floor, "above_limits": verdict["limit"] is None, "verdict": verdict,
         "rise": _time(place.rise), "transit": _time(place.transit), "set": _time(place.set),
-        "site_zone": zone.label(now), "site_zone_source": zone.source,
+        "site_zone": zone.label(now), "site_zone_source": zone.source, "site_zone_name": zone.name,
         "site_times": {"rise": _site_time(place.rise, zone), "transit": _site_time(place.transit, zone),
                        "set": _site_time(place.set, zone)},
+        "tonight": _tonight(device, obj, zone),
+        "phase": _moon_phase(device) if obj.body == "Moon" else None,
         "always_up": place.always_up, "never_up": place.never_up,
         "tracking_rate": obj.tracking_rate,
         "destination_side_of_pier": PIER_SIDES.get(side) if side is not None else None,

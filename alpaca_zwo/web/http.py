@@ -96,8 +96,8 @@ def api_errors(resp: falcon.Response) -> Iterator[None]:
         send(resp, {"error": exc.message}, exc.status)
     except AlpacaError as exc:
         send(resp, {"error": plain_words(exc.message), "number": exc.number}, _http_status(exc))
-    except ConfigError as exc:
-        send(resp, {"error": str(exc)}, 400)
+    except ConfigError as exc:  # "setup page: site.latitude: ...": the page knows where it came from
+        send(resp, {"error": str(exc).removeprefix("setup page: ")}, 400)
     except MountReplyError as exc:
         refusal = refusal_error("the mount refused", exc)  # the one table's words (_exceptions.MOUNT_REFUSALS)
         send(resp, {"error": plain_words(refusal.message), "number": refusal.number}, 409)
@@ -118,8 +118,17 @@ _PLAIN_WORDS = {
 _MEMBER = re.compile("|".join(re.escape(name) for name in _PLAIN_WORDS))
 
 
+#: Advice written for programs, as a person at the page reads it.
+_PLAIN_ADVICE = {
+    "set Connected=true or call Connect first":
+        "press Connect mount first (or connect it from your astronomy program)",
+}
+
+
 def plain_words(message: str) -> str:
-    """A driver message for the page: Alpaca member names put in plain words."""
+    """A driver message for the page: Alpaca member names and advice for programs put in plain words."""
+    for program, person in _PLAIN_ADVICE.items():
+        message = message.replace(program, person)
     return _MEMBER.sub(lambda m: _PLAIN_WORDS[m.group(0)], message)
 
 
@@ -133,6 +142,17 @@ def link_trouble(exc: LinkError | ProtocolError) -> str:
         return "the mount's reply was garbled, so this may not have taken effect: try again"
     return ("the mount cannot be reached, so this did not reach it: check its power and its USB cable or "
             "WiFi; alpaca-zwo keeps reconnecting (the log has the details)")
+
+
+def connect_trouble(url: str) -> str:
+    """A connect that found no mount, in a person's words: where it was looked for and what to check next
+    (the exception text, errno and all, stays in the log and in the Alpaca error programs read)."""
+    if url.startswith(("socket://", "rfc2217://", "tcp://")):
+        return (f"The mount did not answer at {url.split('://', 1)[1]}: check that it is switched on and that this "
+                "computer is on the mount's WiFi (or the network it is on), then press Connect mount again.")
+    return (f"No mount answered on {url}: check that the mount is switched on and that its USB cable is plugged "
+            "in at both ends, then press Connect mount again. If it is on another port, start alpaca-zwo with "
+            "--device and that port (alpaca-zwo --list-devices lists them).")
 
 
 def missing_package(name: str) -> str:

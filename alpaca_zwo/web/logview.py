@@ -17,12 +17,18 @@ from datetime import datetime, timezone
 
 import falcon
 
-from .http import api_errors, query_float, send, text_download
+from .http import ApiError, api_errors, check_same_origin, query_float, read_json, send, text_download
 
 #: How many log records the page can show and download.
 LOG_LINES = 2000
 #: How many records one live-view poll returns at most.
 ENTRIES_PER_POLL = 500
+#: The longest message the page may put in the log (its messages are a sentence or two).
+PAGE_MESSAGE_CHARS = 600
+
+#: The page's own messages (what it told the person, refusals included): the log is their history, since
+#: the page shows only the newest.
+page_log = logging.getLogger("alpaca_zwo.page")
 
 
 @dataclass(frozen=True)
@@ -76,7 +82,11 @@ def log_buffer() -> LogBuffer:
 
 
 class LogResource:
-    """``GET /setup/api/log[?after=SEQ]``: new log lines since the last call, for the live log view."""
+    """``GET /setup/api/log[?after=SEQ]``: new log lines since the last call, for the live log view.
+
+    ``POST /setup/api/log`` with ``{"text": ..., "level": "error"|"info"}``: a message the page showed,
+    kept in the log (one line, bounded), so a refusal made from the page is in the history a user downloads.
+    """
 
     def __init__(self, logs: LogBuffer) -> None:
         self.logs = logs
@@ -86,6 +96,23 @@ class LogResource:
             after = int(query_float(req, "after"))
             entries = self.logs.entries(after)[-ENTRIES_PER_POLL:]
             send(resp, {"entries": [dataclasses.asdict(e) for e in entries]})
+
+    def on_post(self, req: falcon.Request, resp: falcon.Response) -> None:
+        check_same_origin(req)
+        with api_errors(resp):
+            body = read_json(req, 8 * PAGE_MESSAGE_CHARS)
+            text, level = body.get("text"), body.get("level", "info")
+            if not isinstance(text, str) or not text.strip():
+                raise ApiError(400, "text: give the words the page showed")
+            if level not in ("error", "info"):
+                raise ApiError(400, "level must be error or info")
+            # One line of printable text: no newline or control character can forge another line.
+            words = " ".join("".join(c if c.isprintable() else " " for c in text).split())
+            if len(words) > PAGE_MESSAGE_CHARS:
+                words = words[:PAGE_MESSAGE_CHARS - 1] + "\u2026"
+            page_log.log(logging.WARNING if level == "error" else logging.INFO, "page (%s) said: %s",
+                         req.remote_addr, words)
+            send(resp, {"logged": words})
 
 
 class LogText:

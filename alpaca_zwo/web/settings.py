@@ -271,6 +271,7 @@ def server_view(facade: ServerFacade) -> dict[str, Any]:
         "location": net.location,
         "port": facade.port,
         "discovery_port": facade.discovery_port,
+        "connect": facade.connect_info(),  # in effect now, apart from "configured" (after a restart)
         "configured": {"host": net.host, "port": net.port, "discovery_port": net.discovery_port,
                        "mdns": net.mdns},
         # The DNS-rebinding guard: names added by the user ("*": no guard) and those always allowed.

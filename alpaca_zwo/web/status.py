@@ -24,7 +24,14 @@ from ..facade import (
     Settings,
     horizon_altitude_at,
 )
-from ..sky import SOLAR_SECONDS_PER_SIDEREAL_SECOND, equatorial_to_horizontal, hour_angle, local_sidereal_time
+from ..sky import (
+    SOLAR_SECONDS_PER_SIDEREAL_SECOND,
+    equatorial_to_horizontal,
+    flip_line_deg,
+    hour_angle,
+    local_sidereal_time,
+    tracking_stop_deg,
+)
 from .context import Resource
 from .http import PAGE_TAG, api_errors, finite, iso, send
 
@@ -186,13 +193,24 @@ def flags_view(state: MountState) -> dict[str, Any]:
 def meridian_view(facade: ServerFacade, device: DeviceFacade, ha: float | None,
                   counting_down: bool) -> dict[str, Any]:
     """The flip line in force (by the mount's own setting when known) and the time left to reach it:
-    the line the Telescope predicts flips with (DestinationSideOfPier), by the same rule."""
-    track_after, effective = device.flip_line()
-    minutes = None
-    if counting_down and ha is not None:
-        # HA grows one sidereal hour per 0.99727 solar hours while tracking.
-        minutes = (effective / 15.0 - ha) * 60.0 * SOLAR_SECONDS_PER_SIDEREAL_SECOND
-    return {"track_after": track_after, "limit_deg": effective, "minutes_to_limit": finite(minutes, 1)}
+    the line the Telescope predicts flips with (DestinationSideOfPier), by the same rule; and where the
+    mount will stop tracking (``sky.tracking_stop_deg``), with the time left to that, for the page's
+    meridian line and its advice for N.I.N.A."""
+    track_after, limit = device.meridian_setting()
+    effective = flip_line_deg(limit, track_after)
+    stop = tracking_stop_deg(limit, track_after)
+    return {"track_after": track_after, "setting_deg": limit, "limit_deg": effective,
+            "minutes_to_limit": _minutes_to(effective, ha, counting_down), "stop_deg": stop,
+            "stop_minutes": finite(stop * 4.0 * SOLAR_SECONDS_PER_SIDEREAL_SECOND, 1),
+            "minutes_to_stop": _minutes_to(stop, ha, counting_down)}
+
+
+def _minutes_to(line_deg: float, ha: float | None, counting_down: bool) -> float | None:
+    """Solar minutes until a tracked hour angle reaches ``line_deg`` past the meridian (HA grows one
+    sidereal hour per 0.99727 solar hours while tracking); None while not tracking."""
+    if not counting_down or ha is None:
+        return None
+    return finite((line_deg / 15.0 - ha) * 60.0 * SOLAR_SECONDS_PER_SIDEREAL_SECOND, 1)
 
 
 def clients_view(facade: ServerFacade, connected: frozenset[ClientKey]) -> list[dict[str, Any]]:

@@ -150,6 +150,6 @@ def test_the_page_shows_and_edits_the_bridge_networks(browser_factory: Callable[
     zwo_field.clear()
     zwo_field.send_keys("not-a-network")
     driver.find_element(By.CSS_SELECTOR, "#form-networks button[type=submit]").click()
-    WebDriverWait(driver, TIMEOUT).until(lambda d: "'not-a-network' is not a network" in
-                                         d.find_element(By.ID, "messages").text)
+    WebDriverWait(driver, TIMEOUT).until(lambda d: "'not-a-network' is not a network" in  # beside its form
+                                         d.find_element(By.CSS_SELECTOR, "#form-networks + .refusal").text)
     assert server.settings.zwo_port.allowed_networks == ("local", "10.8.0.0/24")

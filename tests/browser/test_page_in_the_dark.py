@@ -129,7 +129,9 @@ class Page:
         return str(self.js("return document.getElementById('messages').innerText"))
 
     def errors(self) -> list[str]:
-        return list(self.js("return [...document.querySelectorAll('#messages .msg.error')].map((e) => e.innerText)"))
+        """The error in the message place and the refusals shown beside the controls that caused them."""
+        return list(self.js("return [...document.querySelectorAll('#messages .msg.error, .refusal')]"
+                            ".map((e) => e.innerText)"))
 
     def shot(self, name: str) -> bytes:
         png: bytes = self.driver.get_screenshot_as_png()
@@ -208,7 +210,8 @@ def test_escape_stops_the_mount_whatever_has_focus(server_factory: ServerFactory
         wait_until(lambda: not _slewing(page.client), 5, f"Escape in #{focus} to stop the slew")
         wait_until(lambda: page.model.snapshot()["velocity_deg_s"][1] == 0.0, 5, "the Dec axis to rest")
         assert abs(page.model.snapshot()["velocity_deg_s"][0]) < 0.01  # at most tracking
-        WebDriverWait(browser, TIMEOUT).until(lambda d: "Stopped: the mount acknowledged." in page.messages())
+        WebDriverWait(browser, TIMEOUT).until(  # "before reaching the target" when a poll saw the slew run
+            lambda d: d.find_element(By.ID, "arrival").text.startswith("Stopped"))
         if focus == "find":  # and the same key still closed the list it was pressed in
             assert field.get_attribute("aria-expanded") == "false"
             assert not browser.find_element(By.ID, "find-list").is_displayed()

@@ -10,7 +10,9 @@ and the browser's zone noted only when it differs. Screenshots go to /tmp.
 
 from __future__ import annotations
 
-from datetime import datetime
+import re
+from datetime import datetime, timedelta, timezone
+from zoneinfo import ZoneInfo
 
 import pytest
 from selenium.webdriver.common.by import By
@@ -111,12 +113,13 @@ def test_names_people_type_and_what_enter_takes(server_factory: ServerFactory, b
     assert page.matches()[0].startswith("M31 \u00b7 Andromeda Galaxy \u2014 galaxy"), page.matches()
     for typed, title, names in (
             ("C14", "Double Cluster", "C14"), ("Caldwell 14", "Double Cluster", "h & chi Persei"),
-            ("Omega Centauri", "NGC 5139", "Omega Centauri"), ("LMC", "Large Magellanic Cloud", "LMC"),
-            ("Small Magellanic Cloud", "NGC 292", "Small Magellanic Cloud"), ("47 Tucanae", "NGC 104", "47 Tucanae"),
-            ("Eta Carinae Nebula", "NGC 3372", "Carina Nebula"), ("Jewel Box", "NGC 4755", "Jewel Box"),
+            # A common name typed for a catalogue number is the name kept (issue 43), the number beside it.
+            ("Omega Centauri", "Omega Centauri", "NGC 5139"), ("LMC", "Large Magellanic Cloud", "LMC"),
+            ("Small Magellanic Cloud", "Small Magellanic Cloud", "NGC 292"), ("47 Tucanae", "47 Tucanae", "NGC 104"),
+            ("Eta Carinae Nebula", "NGC 3372", "Carina Nebula"), ("Jewel Box", "Jewel Box", "NGC 4755"),
             ("Coalsack", "Coalsack Nebula", "C99"), ("Acrux", "Acrux", "\u03b11 Cru"),
             ("Alpha Centauri", "Rigil Kentaurus", "\u03b1 Cen"), ("the Moon", "Moon", ""),
-            ("Heart Nebula", "IC 1805", "Heart Nebula"), ("Sh2-155", "Cave Nebula", "Sh2-155"),
+            ("Heart Nebula", "Heart Nebula", "IC 1805"), ("Sh2-155", "Cave Nebula", "Sh2-155"),
             ("HIP 4427", "\u03b3 Cas", "27 Cas")):
         page.choose(typed, title)
         kind = browser.find_element(By.ID, "sel-kind").text
@@ -138,27 +141,38 @@ def test_names_people_type_and_what_enter_takes(server_factory: ServerFactory, b
     browser.save_screenshot(f"/tmp/alpaca-zwo-search-long-{size}.png")
 
 
-@pytest.mark.parametrize(("size", "browser_zone"), [("phone", "UTC"), ("desktop", "Asia/Tokyo")])
-def test_times_are_in_the_sites_zone_and_say_so(server_factory: ServerFactory, browser: WebDriver, size: str,
-                                                browser_zone: str) -> None:
-    tokyo = (35.6895, 139.6917)
-    page = Page(server_factory, browser, size, tokyo, browser_zone)
-    page.choose("Mars", "Mars")
-    api = page.client.session.get(f"{page.client.api}/object", params={"id": "body:Mars"}, timeout=10).json()
-    facts = dict(zip([e.text for e in browser.find_elements(By.CSS_SELECTOR, "#sel-facts dt")],
-                     [e.text for e in browser.find_elements(By.CSS_SELECTOR, "#sel-facts dd")], strict=True))
-    site = {k: api["site_times"][k][11:16] for k in ("rise", "transit", "set")}
-    assert facts["Tonight"] == (f"rise {site['rise']} \u00b7 transit {site['transit']} \u00b7 set {site['set']}"
-                                f" ({api['site_zone']}, site time)"), facts
-    assert "UTC+9" in api["site_zone"]
-    utc = {k: datetime.fromisoformat(api[k].replace("Z", "+00:00")).strftime("%H:%M")
-           for k in ("rise", "transit", "set")}
-    if browser_zone == "UTC":  # a browser in another zone than the site's: its clock too, labelled
-        assert facts["Your zone"] == (f"rise {utc['rise']} \u00b7 transit {utc['transit']} \u00b7 set {utc['set']}"
-                                      " (UTC+0, this browser)"), facts
-        assert site != utc
-    else:
-        assert "Your zone" not in facts
+@pytest.mark.parametrize(("size", "site", "zone", "browser_zone", "name"), [
+    ("phone", (-33.8688, 151.2093), "Australia/Sydney", "UTC", "Acrux"),  # a Pi left on UTC
+    ("desktop", (35.6895, 139.6917), "Asia/Tokyo", "America/New_York", "Mars"),
+])
+def test_tonight_is_in_the_sites_own_zone_in_time_order(server_factory: ServerFactory, browser: WebDriver, size: str,
+                                                        site: tuple[float, float], zone: str, browser_zone: str,
+                                                        name: str) -> None:
+    """Issue 43 point 3: the site's own zone with daylight saving, named once, whatever the server's and the
+    browser's zones; tonight from dark to dawn in the order it happens."""
+    page = Page(server_factory, browser, size, site, browser_zone)
+    page.choose(name, name)
+    api = page.client.session.get(f"{page.client.api}/object", params={"id": name}, timeout=10).json()
+    WebDriverWait(browser, TIMEOUT).until(lambda d: "Tonight" in _facts(d))
+    said = _facts(browser)["Tonight"]
+    now = datetime.now(timezone.utc)
+    label = objects.SiteZone(ZoneInfo(zone), "site").label(now)
+    assert api["site_zone"] == label and api["site_zone_name"] == zone
+    assert said.endswith(f"({label})"), said  # one time, its zone named once
+    assert "Your zone" not in _facts(browser)
+    night = api["tonight"]
+    instants = [night["end"], *(e["at"] for e in night["events"])]
+    if datetime.fromisoformat(night["start"]) > now + timedelta(minutes=1):
+        instants.append(night["start"])
+    if night["best"] and night["best"] not in (*instants, night["start"]):  # else said at that item
+        instants.append(night["best"])
+    ordered = [at[11:16] for at in sorted(instants, key=datetime.fromisoformat)]
+    assert re.findall(r"\b\d\d:\d\d\b", said) == ordered, (said, night)
+    assert ("best" in said) == (night["best"] is not None), said
+    assert said.startswith(("dark", "no full darkness")) and ("dawn " + night["end"][11:16]) in said, said
     browser.find_element(By.ID, "selection").screenshot(f"/tmp/alpaca-zwo-search-times-{size}.png")
-    assert objects.site_zone(tokyo[1], datetime.fromisoformat(api["site_times"]["transit"])).label(
-        datetime.fromisoformat(api["site_times"]["transit"])) == api["site_zone"]
+
+
+def _facts(driver: WebDriver) -> dict[str, str]:
+    return dict(zip([e.text for e in driver.find_elements(By.CSS_SELECTOR, "#sel-facts dt")],
+                    [e.text for e in driver.find_elements(By.CSS_SELECTOR, "#sel-facts dd")], strict=True))

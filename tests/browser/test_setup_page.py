@@ -156,7 +156,7 @@ def test_stop_button_stops_a_slew(browser: WebDriver, server: AlpacaZwoServer, a
 
     WebDriverWait(browser, 20, poll_frequency=0.2).until(at_rest)
     assert readings[-1] > 0
-    assert "Stopped" in text(browser, "messages")
+    WebDriverWait(browser, 10).until(lambda d: text(d, "arrival").startswith("Stopped"))
 
 
 def test_jog_button_moves_while_pressed(browser: WebDriver, server: AlpacaZwoServer, alpaca: AlpacaClient) -> None:

@@ -23,13 +23,16 @@ from tests.support.observatory import AlpacaSimulators
     ("http://192.168.1.30:11111/api/v1/safetymonitor/0", "http://192.168.1.30:11111/api/v1/safetymonitor/0"),
     ("HTTP://Obs.local:11111/API/V1/SafetyMonitor/02/", "http://obs.local:11111/api/v1/safetymonitor/2"),
     ("https://[fd00::7]/api/v1/safetymonitor/1", "https://[fd00::7]/api/v1/safetymonitor/1"),
+    # As the page's label writes it (issue 43 point 9): no scheme is plain http.
+    ("192.168.1.30:11111/api/v1/safetymonitor/0", "http://192.168.1.30:11111/api/v1/safetymonitor/0"),
+    ("h:11111/api/v1/safetymonitor/0", "http://h:11111/api/v1/safetymonitor/0"),
 ])
 def test_monitor_urls_are_stored_canonically(given: str, stored: str) -> None:
     assert settings_from_dict({"safety": {"monitor": given}}).safety.monitor == stored
 
 
 @pytest.mark.parametrize("bad", [
-    "ftp://h/api/v1/safetymonitor/0", "h:11111/api/v1/safetymonitor/0", "http://h/api/v1/dome/0",
+    "ftp://h/api/v1/safetymonitor/0", "h:11111/api/v1/dome/0", "http://h/api/v1/dome/0",
     "http://h/api/v1/safetymonitor", "http://h/api/v1/safetymonitor/x", "http://u:p@h/api/v1/safetymonitor/0",
     "http://h:0/api/v1/safetymonitor/0", "http://h:70000/api/v1/safetymonitor/0",
     "http://h/api/v1/safetymonitor/0?x=1", "http://h/api/v1/safetymonitor/0#f", 7, None,
