@@ -36,6 +36,7 @@ def test_monitor_urls_are_stored_canonically(given: str, stored: str) -> None:
     "http://h/api/v1/safetymonitor", "http://h/api/v1/safetymonitor/x", "http://u:p@h/api/v1/safetymonitor/0",
     "http://h:0/api/v1/safetymonitor/0", "http://h:70000/api/v1/safetymonitor/0",
     "http://h/api/v1/safetymonitor/0?x=1", "http://h/api/v1/safetymonitor/0#f", 7, None,
+    "[", "http://[fd00::7/api/v1/safetymonitor/0",  # an unclosed IPv6 bracket (the fuzzer found a 500)
 ])
 def test_bad_monitor_urls_are_refused_with_the_key(bad: object) -> None:
     with pytest.raises(ConfigError, match=r"safety\.monitor"):
