@@ -9,9 +9,9 @@ sync by least squares, so a GoTo across the sky lands where the model predicts.
 Conventions (TPoint's): each term gives *mechanical minus true*, ``ΔH = H_mech − H_true`` and
 ``Δδ = δ_mech − δ_true`` (alt-az: ``ΔA``, ``ΔE``), evaluated at the mechanical position.
 
-Equatorial (h hour angle, δ declination, φ latitude, s = +1 in the normal pointing state, pierEast,
-and −1 through the pole, pierWest: CH, NP and ID change sign across the flip because the Dec axis
-is turned over, as TPoint's mechanical δ > 90° means)::
+Equatorial (h hour angle, δ declination, φ latitude; s = −1 with the Dec axis through the pole,
+where TPoint's mechanical δ is beyond ±90°, and +1 on the other side: CH, NP and ID change sign
+across the flip because the Dec axis is turned over; which ASCOM side that is: pointing_frame.side_sign)::
 
     IH  ΔH = −IH                     ID  Δδ = −s·ID
     CH  ΔH = −s·CH·sec δ             NP  ΔH = −s·NP·tan δ
@@ -19,7 +19,7 @@ is turned over, as TPoint's mechanical δ > 90° means)::
     ME  ΔH = +ME·sin h·tan δ         Δδ = +ME·cos h
     TF  ΔH = +TF·cos φ·sin h·sec δ   Δδ = +TF·(cos φ·cos h·sin δ − sin φ·cos δ)
 
-Alt-az (A azimuth north through east, E elevation)::
+Alt-az (A TPoint's azimuth, zero due south and 90° east, E elevation)::
 
     IA  ΔA = −IA                     IE  ΔE = +IE
     CA  ΔA = −CA·sec E               NPAE ΔA = −NPAE·tan E
@@ -303,7 +303,7 @@ def separation_deg(a: Place, b: Place) -> float:
 
 
 @dataclass(frozen=True)
-class Verdict:
+class PointVerdict:
     """What adding a point did: ``accepted`` (and whether it ``replaced`` a near one) or why not."""
 
     accepted: bool
@@ -353,7 +353,7 @@ class PointingModel:
             return None
         return max(OUTLIER_RMS * self.solution.rms, OUTLIER_FLOOR_ARCSEC)
 
-    def add(self, point: ModelPoint) -> Verdict:
+    def add(self, point: ModelPoint) -> PointVerdict:
         """Add a sync's point: refused if it contradicts a model that has enough points to know,
         else it replaces any point within NEAR_DEG on its pier side and the model is refitted."""
         limit = self.outlier_limit(point.mech.side)
@@ -364,14 +364,14 @@ class PointingModel:
                 f"{len(self.points)} points puts it (limit {limit / 60.0:.1f}′); a wrong plate solve or "
                 "a mount moved on its clutches. The sync itself holds; clear the model if the mount "
                 "was moved.")
-            return Verdict(False, message=self.last_refusal)
+            return PointVerdict(False, message=self.last_refusal)
         kept = [p for p in self.points
                 if p.mech.side != point.mech.side or separation_deg(p.mech, point.mech) >= NEAR_DEG]
         replaced = len(kept) < len(self.points)
         self.points = [*kept, point][-MAX_POINTS:]
         self.last_refusal = ""
         self.refit()
-        return Verdict(True, replaced, "replaced a point nearby" if replaced else "")
+        return PointVerdict(True, replaced, "replaced a point nearby" if replaced else "")
 
     # -- persistence --------------------------------------------------------------------------
 
