@@ -58,6 +58,7 @@ class EmbeddedEmulator:
 
     def __init__(self, settings: Settings, speed: float, baud: int, mode: str | None = None) -> None:
         from .emulator import EmulatorServer, MountModel, ScaledClock, preset
+        from .emulator.imperfection import Imperfection
         from .zwo.wire_values import MountMode
 
         self.clock = ScaledClock(speed=speed)
@@ -65,7 +66,9 @@ class EmbeddedEmulator:
         overrides = {"model": config.model, "version": config.firmware}
         firmware = preset(config.preset, **{key: value for key, value in overrides.items() if value})
         altaz = (mode or config.mode) == "altaz"
-        self.model = MountModel(self.clock, firmware=firmware, mode=MountMode.ALTAZ if altaz else MountMode.EQUATORIAL)
+        imperfection = Imperfection.of(config.pointing_errors, config.pointing_noise, config.pointing_seed)
+        self.model = MountModel(self.clock, firmware=firmware, mode=MountMode.ALTAZ if altaz else MountMode.EQUATORIAL,
+                                imperfection=imperfection)
         self.server = EmulatorServer(self.model, host="127.0.0.1", port=0, baud=baud)
         self.server.start()
         self.url = f"socket://127.0.0.1:{self.server.port}"

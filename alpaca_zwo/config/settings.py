@@ -378,6 +378,11 @@ class LoggingSettings:
     trace_size: int = _setting(2000, _int(0, 1_000_000))
 
 
+#: ``[emulator] pointing_errors``: NAME=ARCMINUTES pairs of TPOINT's terms (the emulator checks the values).
+_POINTING_TERM = r"(?:NPAE|IH|ID|CH|NP|MA|ME|TF|IA|IE|CA|AN|AW)=[-+]?(?:\d+\.?\d*|\.\d+)"
+_POINTING_TERMS = rf"{_POINTING_TERM}(?:,{_POINTING_TERM})*"
+
+
 @dataclass(frozen=True, kw_only=True)
 class EmulatorSettings:
     """The built-in mount emulator used by devices whose url is empty."""
@@ -392,6 +397,12 @@ class EmulatorSettings:
     #: The mount mode stored in the emulated mount's flash at start: "eq" (German equatorial) or
     #: "altaz" (as if :AA# had been sent and the mount restarted), to run the whole server in alt-az.
     mode: str = _setting("eq", _choice("eq", "altaz"))
+    #: Mechanical errors of the emulated mount (emulator/imperfection.py): TPOINT terms in arcminutes, like
+    #: "IH=20,ID=-8,MA=12,ME=-9,CH=5,NP=2,TF=1.5" (alt-az: IA, IE, CA, NPAE, AN, AW, TF); "" = a perfect mount.
+    pointing_errors: str = _setting("", _str(pattern=_POINTING_TERMS, hint="TPOINT terms like 'IH=20,MA=-3.5'"))
+    #: Unmodelled scatter of every pointing, RMS arcseconds on the sky (repeatable: seeded by pointing_seed).
+    pointing_noise: float = _setting(0.0, _float(0.0, 3600.0))
+    pointing_seed: int = _setting(0, _int(0, 2**31 - 1))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -35,6 +35,7 @@ from ..zwo.firmware import (
 from ..zwo.wire_values import MountMode
 from .clock import ScaledClock
 from .control import ControlServer
+from .imperfection import ALTAZ_TERMS, EQUATORIAL_TERMS, MAX_NOISE_ARCSEC, Imperfection, parse_terms
 from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, MountModel
 from .server import EmulatorServer, pty_support_error
 
@@ -53,6 +54,22 @@ def _positive(text: str) -> float:
     value = float(text)
     if not value > 0.0:
         raise argparse.ArgumentTypeError("must be > 0")
+    return value
+
+
+def _terms(text: str) -> str:
+    """``--pointing-errors``: checked here so a typo is a usage error, not a perfect mount."""
+    try:
+        parse_terms(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from exc
+    return text
+
+
+def _noise(text: str) -> float:
+    value = float(text)
+    if not 0.0 <= value <= MAX_NOISE_ARCSEC:
+        raise argparse.ArgumentTypeError(f"must be between 0 and {MAX_NOISE_ARCSEC:g} arcseconds")
     return value
 
 
@@ -96,6 +113,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--mode", choices=("eq", "altaz"), default="eq",
         help="mount mode in flash at start: eq, or altaz (as if :AA# had been sent and the mount restarted)",
     )
+
+    errors = parser.add_argument_group("mechanical errors (alpaca_zwo/emulator/README.md, docs/pointing-errors.md)")
+    errors.add_argument(
+        "--pointing-errors", type=_terms, default="", metavar="TERMS",
+        help="TPOINT terms in arcminutes, like IH=20,ID=-8,MA=12,ME=-9,CH=5,NP=2,TF=1.5 "
+             f"(equatorial: {', '.join(EQUATORIAL_TERMS)}; alt-az: {', '.join(ALTAZ_TERMS)})")
+    errors.add_argument("--pointing-noise", type=_noise, default=0.0, metavar="ARCSEC",
+                        help="unmodelled scatter of every pointing, RMS arcseconds on the sky (repeatable)")
+    errors.add_argument("--pointing-seed", type=int, default=0, metavar="N", help="the scatter's seed (default 0)")
 
     fw = parser.add_argument_group("firmware variant (a preset; the options below override its switches)")
     fw.add_argument("--preset", choices=tuple(PRESETS), default=DEFAULT_PRESET,
@@ -180,7 +206,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     clock = ScaledClock(speed=args.speed, start_utc=args.start_time)
     mode = MountMode.ALTAZ if args.mode == "altaz" else MountMode.EQUATORIAL
-    model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized, mode=mode)
+    imperfection = Imperfection.of(args.pointing_errors, args.pointing_noise, args.pointing_seed)
+    model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized, mode=mode,
+                       imperfection=imperfection)
     server = EmulatorServer(model, host=args.host, port=args.port, baud=args.baud, pty=args.pty, pty_link=args.pty_link)
     try:
         server.start()

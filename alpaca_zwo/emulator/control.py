@@ -4,7 +4,8 @@ Lets a test in another process (or a person with ``nc``) inject faults and read 
 state without touching the mount protocol: each request line gets exactly one line of JSON.
 
     stall MS | drop N | garble N | close | outage SECONDS | reboot [SECONDS] | clear
-    stats | state | help
+    pointing-errors TERMS|none | pointing-noise ARCSEC [SEED]
+    stats | state | pointing | help
 """
 
 from __future__ import annotations
@@ -19,13 +20,16 @@ from collections.abc import Callable
 from typing import Any
 
 from .faults import Faults
+from .imperfection import Imperfection, format_terms
+from .model import MountModel
 from .server import EmulatorServer
 
 __all__ = ["ControlServer", "ask", "execute"]
 
 _log = logging.getLogger(__name__)
 
-HELP = "stall MS | drop N | garble N | close | outage SECONDS | reboot [SECONDS] | clear | stats | state"
+HELP = ("stall MS | drop N | garble N | close | outage SECONDS | reboot [SECONDS] | clear | "
+        "pointing-errors TERMS|none | pointing-noise ARCSEC [SEED] | stats | state | pointing")
 
 
 #: Fault commands: name -> (what it does with the arguments), each answering ``{"ok": true, "command": name}``.
@@ -38,10 +42,31 @@ _FAULTS: dict[str, Callable[[Faults, list[str]], object]] = {
     "reboot": lambda f, a: f.reboot(float(a[0]) if a else 2.0),
     "clear": lambda f, a: f.clear(),
 }
+
+
+def _pointing_errors(model: MountModel, args: list[str]) -> None:
+    """``pointing-errors IH=20,ID=-8`` (or ``none``): new TPOINT terms, the scatter kept."""
+    now = model.imperfection
+    model.set_imperfection(Imperfection.of("".join(args), now.noise.rms_arcsec, now.noise.seed))
+
+
+def _pointing_noise(model: MountModel, args: list[str]) -> None:
+    """``pointing-noise ARCSEC [SEED]``: a new scatter, the terms kept."""
+    now = model.imperfection
+    seed = int(args[1]) if len(args) > 1 else now.noise.seed
+    model.set_imperfection(Imperfection.of(format_terms(now.terms), float(args[0]), seed))
+
+
+#: Changes to the mount's mechanics: name -> what it does, answering like a fault command.
+_MECHANICS: dict[str, Callable[[MountModel, list[str]], None]] = {
+    "pointing-errors": _pointing_errors,
+    "pointing-noise": _pointing_noise,
+}
 #: Read-outs: name -> (the answer's key, how to read it).
 _READOUTS: dict[str, tuple[str, Callable[[EmulatorServer], object]]] = {
     "stats": ("stats", lambda s: s.stats()),
     "state": ("state", lambda s: s.model.snapshot()),
+    "pointing": ("pointing", lambda s: s.model.imperfection.describe()),
     "help": ("help", lambda s: HELP),
 }
 
@@ -56,10 +81,14 @@ def execute(server: EmulatorServer, line: str) -> dict[str, Any]:
         key, read = _READOUTS[name]
         return {"ok": True, key: read(server)}
     fault = _FAULTS.get(name)
-    if fault is None:
+    mechanics = _MECHANICS.get(name)
+    if fault is None and mechanics is None:
         return {"ok": False, "error": f"unknown command {name!r}", "help": HELP}
     try:
-        fault(server.faults, args)
+        if fault is not None:
+            fault(server.faults, args)
+        elif mechanics is not None:
+            mechanics(server.model, args)
     except (IndexError, ValueError) as exc:
         return {"ok": False, "error": f"bad arguments for {name}: {exc}", "help": HELP}
     return {"ok": True, "command": name}

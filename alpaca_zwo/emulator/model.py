@@ -57,6 +57,7 @@ from .clock import Clock
 from .clocksite import ClockAndSite
 from .faults import FaultEvent, Faults
 from .flash import FlashSettings
+from .imperfection import Imperfection
 from .physics import Mechanics
 from .state import (
     ACCEL_DEG_S2,
@@ -108,11 +109,15 @@ class MountModel:
         faults: Faults | None = None,
         accel: float = ACCEL_DEG_S2,
         mode: MountMode = MountMode.EQUATORIAL,
+        imperfection: Imperfection | None = None,
     ) -> None:
         """``site`` is the (latitude, east longitude) stored in the mount, returned after every
         power-up; ``initialized`` starts as if a client had already set date, time and site;
-        ``mode`` is the mount mode in flash (as if ``:AA#``/``:AP#`` and a restart had happened)."""
+        ``mode`` is the mount mode in flash (as if ``:AA#``/``:AP#`` and a restart had happened);
+        ``imperfection`` its mechanical errors (``imperfection.py``; default: a perfect mount)."""
         self._lock = threading.RLock()
+        #: Where the tube truly points, relative to the axes: a property of the machine, kept across power cycles.
+        self.imperfection = imperfection if imperfection is not None else Imperfection()
         self._clock = clock
         self.firmware = firmware if firmware is not None else FirmwareVariant()
         persist = Persistent(mode=mode)
@@ -177,6 +182,33 @@ class MountModel:
             mech.advance()
             ra, dec = mech.reported()
             return sky.equatorial_to_horizontal(sky.hour_angle(site.lst(mech.t), ra), dec, site.latitude_deg)
+
+    def set_imperfection(self, imperfection: Imperfection) -> None:
+        """Change the mount's mechanical errors (the control port's ``pointing-errors``/``pointing-noise``)."""
+        with self._lock:
+            self.imperfection = imperfection
+
+    def sky(self) -> tuple[float, float, float, float]:
+        """Where the tube truly points: (RA hours, Dec degrees, altitude, azimuth), in the frame of
+        ``position()`` (the mount's LST and site) but without its sync offset, which is only the mount's
+        belief. A perfect mount points where its axes say (``raw_ha_dec``)."""
+        with self._lock:
+            self.mechanics.advance()
+            return self._sky()
+
+    def _sky(self) -> tuple[float, float, float, float]:
+        """``sky()`` for callers holding the lock, the physics advanced."""
+        mech, site = self.mechanics, self.clock_site
+        latitude = site.latitude_deg
+        ha, dec = mech.raw_ha_dec()
+        p, s = mech.pos
+        if mech.altaz() and not self.imperfection.perfect:
+            alt, az = self.imperfection.altaz_sky(p, s)
+            ha, dec = sky.horizontal_to_equatorial(alt, az, latitude)
+        elif not self.imperfection.perfect:  # TPOINT's mechanical Dec is past ±90° where raw_ha_dec folds it
+            ha, dec = self.imperfection.equatorial_sky(p, s, ha, dec, latitude, abs(s) > 90.0)
+        alt, az = sky.equatorial_to_horizontal(ha, dec, latitude)
+        return sky.ra_from_hour_angle(site.lst(mech.t), ha), dec, alt, az
 
     def axes(self) -> tuple[float, float]:
         """Mechanical (primary, secondary) axis angles in degrees, for tests and inspection."""
@@ -574,6 +606,7 @@ class MountModel:
             raw_ha, raw_dec = mech.raw_ha_dec()
             lst = site.lst(mech.t)
             alt, az = sky.equatorial_to_horizontal(sky.hour_angle(lst, ra), dec, site.latitude_deg)
+            sky_ra, sky_dec, sky_alt, sky_az = self._sky()
             persist = self.flash.persist
             return {
                 "emulated_seconds": mech.t,
@@ -592,6 +625,11 @@ class MountModel:
                 "az_deg": az,
                 "raw_ha_h": raw_ha,
                 "raw_dec_deg": raw_dec,
+                "sky_ra_h": sky_ra,  # where the tube truly points (imperfection.py), the frame of ra_h
+                "sky_dec_deg": sky_dec,
+                "sky_alt_deg": sky_alt,
+                "sky_az_deg": sky_az,
+                "pointing_errors": self.imperfection.describe(),
                 "primary_deg": mech.pos[RA],
                 "secondary_deg": mech.pos[DEC],
                 "velocity_deg_s": list(mech.vel),
