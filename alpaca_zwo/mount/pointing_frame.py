@@ -195,7 +195,7 @@ class PointingFrame:
             model = self._model
             solution = model.solution
             points = [{"ra_h": p.ra_h, "dec_deg": p.dec_deg, "time": p.time, "pier": p.mech.side,
-                       "residual_arcsec": [round(r[0], 1), round(r[1], 1)]}
+                       **self._where_taken(p.true), "residual_arcsec": [round(r[0], 1), round(r[1], 1)]}
                       for p, r in zip(model.points, solution.residuals, strict=False)]
             return {
                 "enabled": model.enabled,
@@ -207,6 +207,12 @@ class PointingFrame:
                 "rms_arcsec": round(solution.rms, 1),
                 "last_refusal": model.last_refusal,
             }
+
+    def _where_taken(self, true: Place) -> dict[str, float]:
+        """Where on the local sky a point was taken (its hour angle fixes it there): the page's chart."""
+        ha, dec = self._hadec(true)
+        alt, az = sky.equatorial_to_horizontal(ha, dec, self._model.latitude)
+        return {"alt": round(alt, 2), "az": round(az, 2)}
 
     # -- the file -------------------------------------------------------------------------------
 
