@@ -381,6 +381,20 @@ class LoggingSettings:
 #: ``[emulator] pointing_errors``: NAME=ARCMINUTES pairs of TPOINT's terms (the emulator checks the values).
 _POINTING_TERM = r"(?:NPAE|IH|ID|CH|NP|MA|ME|TF|IA|IE|CA|AN|AW)=[-+]?(?:\d+\.?\d*|\.\d+)"
 _POINTING_TERMS = rf"{_POINTING_TERM}(?:,{_POINTING_TERM})*"
+_POINTING_MAX_ARCMIN = 600.0  # emulator/imperfection.py's MAX_TERM_ARCMIN (config may not import the emulator)
+
+
+def _pointing_terms(value: Any) -> str:
+    """``[emulator] pointing_errors``: the pattern, each term once, none beyond ±600′ (the emulator's own limits)."""
+    text: str = _str(pattern=_POINTING_TERMS, hint="TPOINT terms like 'IH=20,MA=-3.5'")(value)
+    pairs = [item.split("=") for item in text.split(",")] if text else []
+    names = [name for name, _ in pairs]
+    if len(set(names)) != len(names):
+        raise _Invalid(f"must name each term once, got {text!r}")
+    for name, number in pairs:
+        if abs(float(number)) > _POINTING_MAX_ARCMIN:
+            raise _Invalid(f"{name}={number} is beyond ±{_POINTING_MAX_ARCMIN:g} arcminutes")
+    return text
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -399,7 +413,7 @@ class EmulatorSettings:
     mode: str = _setting("eq", _choice("eq", "altaz"))
     #: Mechanical errors of the emulated mount (emulator/imperfection.py): TPOINT terms in arcminutes, like
     #: "IH=20,ID=-8,MA=12,ME=-9,CH=5,NP=2,TF=1.5" (alt-az: IA, IE, CA, NPAE, AN, AW, TF); "" = a perfect mount.
-    pointing_errors: str = _setting("", _str(pattern=_POINTING_TERMS, hint="TPOINT terms like 'IH=20,MA=-3.5'"))
+    pointing_errors: str = _setting("", _pointing_terms)
     #: Unmodelled scatter of every pointing, RMS arcseconds on the sky (repeatable: seeded by pointing_seed).
     pointing_noise: float = _setting(0.0, _float(0.0, 3600.0))
     pointing_seed: int = _setting(0, _int(0, 2**31 - 1))

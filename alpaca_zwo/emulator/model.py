@@ -116,8 +116,6 @@ class MountModel:
         ``mode`` is the mount mode in flash (as if ``:AA#``/``:AP#`` and a restart had happened);
         ``imperfection`` its mechanical errors (``imperfection.py``; default: a perfect mount)."""
         self._lock = threading.RLock()
-        #: Where the tube truly points, relative to the axes: a property of the machine, kept across power cycles.
-        self.imperfection = imperfection if imperfection is not None else Imperfection()
         self._clock = clock
         self.firmware = firmware if firmware is not None else FirmwareVariant()
         persist = Persistent(mode=mode)
@@ -129,7 +127,8 @@ class MountModel:
         start = clock.seconds()
         self.flash = FlashSettings(persist=persist, firmware=self.firmware, lock=self._lock, advance=self._advance)
         self.clock_site = ClockAndSite(flash=self.flash, lock=self._lock, advance=self._advance, t=start)
-        self.mechanics = Mechanics(clock=clock, accel=accel, flash=self.flash, site=self.clock_site, t=start)
+        self.mechanics = Mechanics(clock=clock, accel=accel, flash=self.flash, site=self.clock_site, t=start,
+                                   imperfection=imperfection if imperfection is not None else Imperfection())
         self.altaz_rules = AltAzRules(mechanics=self.mechanics, site=self.clock_site, flash=self.flash)
         self.faults.add_listener(self._on_fault)
         if initialized:
@@ -183,10 +182,15 @@ class MountModel:
             ra, dec = mech.reported()
             return sky.equatorial_to_horizontal(sky.hour_angle(site.lst(mech.t), ra), dec, site.latitude_deg)
 
+    @property
+    def imperfection(self) -> Imperfection:
+        """The mount's mechanical errors (``imperfection.py``): where the tube truly points, relative to its axes."""
+        return self.mechanics.imperfection
+
     def set_imperfection(self, imperfection: Imperfection) -> None:
         """Change the mount's mechanical errors (the control port's ``pointing-errors``/``pointing-noise``)."""
         with self._lock:
-            self.imperfection = imperfection
+            self.mechanics.imperfection = imperfection
 
     def sky(self) -> tuple[float, float, float, float]:
         """Where the tube truly points: (RA hours, Dec degrees, altitude, azimuth), in the frame of
@@ -199,15 +203,8 @@ class MountModel:
     def _sky(self) -> tuple[float, float, float, float]:
         """``sky()`` for callers holding the lock, the physics advanced."""
         mech, site = self.mechanics, self.clock_site
-        latitude = site.latitude_deg
-        ha, dec = mech.raw_ha_dec()
-        p, s = mech.pos
-        if mech.altaz() and not self.imperfection.perfect:
-            alt, az = self.imperfection.altaz_sky(p, s)
-            ha, dec = sky.horizontal_to_equatorial(alt, az, latitude)
-        elif not self.imperfection.perfect:  # TPOINT's mechanical Dec is past ±90° where raw_ha_dec folds it
-            ha, dec = self.imperfection.equatorial_sky(p, s, ha, dec, latitude, abs(s) > 90.0)
-        alt, az = sky.equatorial_to_horizontal(ha, dec, latitude)
+        ha, dec = mech.true_ha_dec()
+        alt, az = sky.equatorial_to_horizontal(ha, dec, site.latitude_deg)
         return sky.ra_from_hour_angle(site.lst(mech.t), ha), dec, alt, az
 
     def axes(self) -> tuple[float, float]:

@@ -12,16 +12,20 @@ from __future__ import annotations
 import math
 import random
 from datetime import datetime, timezone
+from pathlib import Path
 
 import pytest
 
 from alpaca_zwo import sky
+from alpaca_zwo._exceptions import ConfigError
+from alpaca_zwo.config.file import load_settings
 from alpaca_zwo.config.settings import EmulatorSettings
 from alpaca_zwo.emulator import EmulatorServer, ManualClock, MountModel
 from alpaca_zwo.emulator.cli import build_parser
 from alpaca_zwo.emulator.control import execute
 from alpaca_zwo.emulator.imperfection import Imperfection, NoiseField, equatorial_offset, parse_terms
 from alpaca_zwo.zwo.wire_values import MountMode
+from tests.conftest import ServerFactory, make_settings
 
 START = datetime(2025, 3, 20, 22, 0, tzinfo=timezone.utc)
 REALISTIC = "IH=20,ID=-8,MA=12,ME=-9,CH=5,NP=2,TF=1.5"
@@ -237,3 +241,25 @@ def test_command_line_and_settings_carry_the_errors() -> None:
         build_parser().parse_args(["--pointing-noise", "-1"])
     settings = EmulatorSettings()
     assert (settings.pointing_errors, settings.pointing_noise, settings.pointing_seed) == ("", 0.0, 0)
+
+
+@pytest.mark.parametrize(("text", "reason"), [
+    ('pointing_errors = "XX=1"', "TPOINT terms"), ('pointing_errors = "IH=1,IH=2"', "each term once"),
+    ('pointing_errors = "IH=700"', "beyond"), ("pointing_noise = -1", "between 0 and 3600"),
+    ("pointing_seed = -1", "between 0 and")])
+def test_bad_pointing_settings_name_the_key(tmp_path: Path, text: str, reason: str) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(f"[emulator]\n{text}\n", encoding="utf-8")
+    with pytest.raises(ConfigError) as excinfo:
+        load_settings(path)
+    assert f"emulator.{text.split()[0]}: " in str(excinfo.value) and reason in str(excinfo.value)
+
+
+def test_the_built_in_emulator_takes_the_settings(server_factory: ServerFactory) -> None:
+    settings = make_settings(emulator=EmulatorSettings(speed=1.0, baud=0, pointing_errors="MA=12,ME=-9",
+                                                        pointing_noise=5.0, pointing_seed=3))
+    server = server_factory(settings, setup=False)
+    emulator = server.emulators[0]
+    assert emulator is not None
+    assert emulator.model.imperfection.describe() == {
+        "terms_arcmin": {"MA": 12.0, "ME": -9.0}, "noise_arcsec": 5.0, "seed": 3}
