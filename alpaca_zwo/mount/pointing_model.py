@@ -325,6 +325,9 @@ class PointingModel:
     points: list[ModelPoint] = field(default_factory=list)
     solution: Fit = field(default_factory=Fit)
     last_refusal: str = ""
+    #: The last refused point, if the last sync was refused: a second refused sync that agrees with it
+    #: means the mount changed (a clutch slip, a re-homed axis, a new polar alignment), not a bad solve.
+    refused: ModelPoint | None = None
 
     @property
     def active(self) -> Fit:
@@ -337,14 +340,19 @@ class PointingModel:
     def clear(self) -> None:
         self.points = []
         self.last_refusal = ""
+        self.refused = None
         self.refit()
 
-    def miss_arcsec(self, point: ModelPoint) -> float:
-        """How far the current model's prediction is from a point's measured error (arcseconds)."""
+    def residual(self, point: ModelPoint) -> tuple[float, float]:
+        """A point's measured error less the current model's prediction there (x, y arcseconds)."""
         px, py = _predict(tuple(t.name for t in self.solution.terms), [t.value for t in self.solution.terms],
                           point.mech, self.latitude, self.altaz)
         ex, ey = point.error()
-        return math.hypot(ex - px, ey - py)
+        return ex - px, ey - py
+
+    def miss_arcsec(self, point: ModelPoint) -> float:
+        """How far the current model's prediction is from a point's measured error (arcseconds)."""
+        return math.hypot(*self.residual(point))
 
     def outlier_limit(self, side: int) -> float | None:
         """The miss (arcseconds) beyond which a point on ``side`` is refused; None: too few points to judge."""
@@ -359,12 +367,16 @@ class PointingModel:
         limit = self.outlier_limit(point.mech.side)
         miss = self.miss_arcsec(point)
         if limit is not None and miss > limit:
+            if self._agrees_with_refused(point, limit):
+                return self._restart(point)
+            self.refused = point
             self.last_refusal = (
                 f"sync point refused: it is {miss / 60.0:.1f}′ from where the pointing model of "
                 f"{len(self.points)} points puts it (limit {limit / 60.0:.1f}′); a wrong plate solve or "
-                "a mount moved on its clutches. The sync itself holds; clear the model if the mount "
-                "was moved.")
+                "a mount moved on its clutches. The sync itself holds; a second sync that disagrees alike "
+                "restarts the model, or clear it after a new polar alignment.")
             return PointVerdict(False, message=self.last_refusal)
+        self.refused = None
         kept = [p for p in self.points
                 if p.mech.side != point.mech.side or separation_deg(p.mech, point.mech) >= NEAR_DEG]
         replaced = len(kept) < len(self.points)
@@ -372,6 +384,28 @@ class PointingModel:
         self.last_refusal = ""
         self.refit()
         return PointVerdict(True, replaced, "replaced a point nearby" if replaced else "")
+
+    def _agrees_with_refused(self, point: ModelPoint, limit: float) -> bool:
+        """The last sync was refused too, and both miss the model alike along the axes (a slipped or
+        re-homed axis shifts every place by one angle, whatever its declination): the mount changed."""
+        if self.refused is None:
+            return False
+
+        def along_axes(p: ModelPoint) -> tuple[float, float]:
+            x, y = self.residual(p)
+            return x / max(0.1, math.cos(math.radians(p.mech.lat))), y
+
+        (x1, y1), (x2, y2) = along_axes(self.refused), along_axes(point)
+        return math.hypot(x1 - x2, y1 - y2) <= limit
+
+    def _restart(self, point: ModelPoint) -> PointVerdict:
+        """Start the model afresh from the two refused syncs that agree."""
+        self.points = [self.refused, point] if self.refused is not None else [point]
+        self.refused = None
+        self.last_refusal = ("pointing model restarted: two syncs in a row disagreed with it alike (the mount "
+                             "was moved, re-homed or polar-aligned again); it starts from those two")
+        self.refit()
+        return PointVerdict(True, message=self.last_refusal)
 
     # -- persistence --------------------------------------------------------------------------
 

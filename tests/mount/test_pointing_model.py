@@ -179,3 +179,28 @@ def test_another_site_or_mode_starts_an_empty_model() -> None:
     model.add(synthetic(REALISTIC, 52.0, False, 0.0)[0])
     assert model.with_site(52.001, False) is model
     assert model.with_site(48.0, False).points == [] and model.with_site(52.0, True).points == []
+
+
+def test_two_refused_syncs_that_agree_restart_the_model() -> None:
+    """A clutch slip moves every later sync alike: the second such sync restarts the model from both."""
+    points = synthetic(REALISTIC, 52.0, False, 3.0)
+    model = PointingModel(52.0)
+    for point in points[:10]:
+        model.add(point)
+    slipped = [ModelPoint(p.mech, Place(p.true.lon + 1.0, p.true.lat, p.true.side)) for p in points[10:12]]
+    assert not model.add(slipped[0]).accepted
+    verdict = model.add(slipped[1])
+    assert verdict.accepted and "restarted" in verdict.message
+    assert model.points == slipped and [t.name for t in model.solution.terms] == ["IH", "ID"]
+
+
+def test_two_wrong_solves_in_a_row_that_disagree_leave_the_model_alone() -> None:
+    points = synthetic(REALISTIC, 52.0, False, 3.0)
+    model = PointingModel(52.0)
+    for point in points[:10]:
+        model.add(point)
+    before = model.solution
+    first, second = points[10], points[11]
+    assert not model.add(ModelPoint(first.mech, Place(first.true.lon + 1.0, first.true.lat, -1))).accepted
+    assert not model.add(ModelPoint(second.mech, Place(second.true.lon, second.true.lat - 2.0, -1))).accepted
+    assert model.solution == before and len(model.points) == 10
