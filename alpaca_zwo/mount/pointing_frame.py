@@ -5,12 +5,15 @@ alignment offset ``a`` Mount tracks), so a sync still reads back exactly what wa
 with the model switched off, cleared or holding one point behaves exactly as before. On top of it
 this adds the model's shape::
 
-    client = reading + D(m) − D(anchor)        m = reading − a: where the axes point, unsynced
+    client = reading + D(m) − D(A) − (1 − w)·e(A)       m = reading − a: where the axes point, unsynced
 
-where ``D(m)`` is the model's true-minus-mechanical offset at ``m`` (pointing_model.py, TPoint's terms)
-and ``anchor`` the mechanical place of the last sync: at the sync the correction is zero (the read-back
-is exact) and elsewhere the reading is the model's prediction plus the last sync's own residual, as
-alpaca-benro-polaris keeps zero error at the last sync. After a mount restart or ``:NSC#`` the mount
+where ``D(m)`` is the model's true-minus-mechanical offset at ``m`` (pointing_model.py, TPoint's terms),
+``A`` the last sync's point, ``e(A)`` its residual against the model and ``w`` a weight that is 1 at
+``A`` and fades with the distance from it (ANCHOR_REACH_DEG; 0 on the other pier side). At the sync the
+correction is zero, so the read-back is exact; near it the sync's own residual holds (a re-centring lands
+on it); far from it the reading is the model's prediction alone, so one sync with an unmodelled error
+(or a refused, wrong one) does not shift the whole sky (alpaca-benro-polaris weighs nearby syncs likewise).
+After a mount restart or ``:NSC#`` the mount
 reads ``m`` itself and there is no anchor: the whole model (index errors included) applies, so a
 model fitted last night points the mount right after a power cycle without a sync.
 
@@ -23,6 +26,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import tempfile
 import threading
@@ -31,10 +35,25 @@ from pathlib import Path
 from typing import Any
 
 from .. import sky
-from .pointing_model import Fit, ModelPoint, Place, PointingModel, PointVerdict, to_true
+from .pointing_model import (
+    Fit,
+    ModelPoint,
+    Place,
+    PointingModel,
+    PointVerdict,
+    point_from_dict,
+    point_to_dict,
+    separation_deg,
+    to_true,
+)
 
 log = logging.getLogger(__name__)
 
+#: How far (degrees on the sky) the last sync's own residual reaches: it is kept in full at the sync (a
+#: sync reads back exactly) and fades as exp(−(d/ANCHOR_REACH_DEG)²), so far from it the model alone
+#: applies (alpaca-benro-polaris weighs nearby syncs likewise). A re-centring is a fraction of a degree
+#: away: there the sync holds to a hundredth of an arcsecond per arcminute of residual.
+ANCHOR_REACH_DEG = 15.0
 #: A site this far (degrees of latitude or longitude, about a kilometre) from the model's is another
 #: set-up: the model starts afresh (docs/pointing-model.md).
 SITE_CHANGE_DEG = 0.01
@@ -65,7 +84,7 @@ class PointingFrame:
         self._path = path
         self._lock = threading.Lock()
         self._model = PointingModel()
-        self._anchor: Place | None = None
+        self._anchor: ModelPoint | None = None
         self._longitude: float | None = None
         self.saved_alignment: tuple[float, float] = (0.0, 0.0)
         self._load()
@@ -93,16 +112,31 @@ class PointingFrame:
         true_ha, true_dec = self._hadec(to_true(model, mech, self._model.latitude, self._model.altaz))
         return -sky.wrap_hours_12(true_ha - mech_ha), true_dec - mech_dec
 
+    def _measured(self, point: ModelPoint) -> tuple[float, float]:
+        """(ΔRA hours, ΔDec degrees), true minus mechanical, as a sync measured it."""
+        mech_ha, mech_dec = self._hadec(point.mech)
+        true_ha, true_dec = self._hadec(point.true)
+        return -sky.wrap_hours_12(true_ha - mech_ha), true_dec - mech_dec
+
     def _correction(self, model: Fit, ra: float, dec: float, where: Sky) -> tuple[float, float]:
-        """D(m) − D(anchor) for a mount-frame position (module docstring)."""
+        """D(m) − D(anchor) − (1 − w)·e(anchor) for a mount-frame position: the model's shape on the
+        mount's own sync, the last sync's residual e kept near it and faded far from it (w, the module
+        docstring and ANCHOR_REACH_DEG)."""
         if not model.terms:
             return 0.0, 0.0
         mech_ra, mech_dec = ra - where.alignment[0], max(-90.0, min(90.0, dec - where.alignment[1]))
-        d_ra, d_dec = self._offset(model, self._place(sky.hour_angle(where.lst, mech_ra), mech_dec, where.side))
-        if self._anchor is not None:
-            a_ra, a_dec = self._offset(model, self._anchor)
-            d_ra, d_dec = d_ra - a_ra, d_dec - a_dec
-        return d_ra, d_dec
+        mech = self._place(sky.hour_angle(where.lst, mech_ra), mech_dec, where.side)
+        d_ra, d_dec = self._offset(model, mech)
+        anchor = self._anchor
+        if anchor is None:
+            return d_ra, d_dec
+        a_ra, a_dec = self._offset(model, anchor.mech)
+        m_ra, m_dec = self._measured(anchor)
+        fade = 1.0
+        if anchor.mech.side == mech.side:
+            fade -= math.exp(-((separation_deg(mech, anchor.mech) / ANCHOR_REACH_DEG) ** 2))
+        return (d_ra - a_ra - fade * sky.wrap_hours_12(m_ra - a_ra),
+                d_dec - a_dec - fade * (m_dec - a_dec))
 
     def to_client(self, ra: float, dec: float, where: Sky) -> tuple[float, float]:
         """A mount-frame reading corrected by the model (still without the sync remainder)."""
@@ -139,8 +173,9 @@ class PointingFrame:
             mech_dec = max(-90.0, min(90.0, before[1] - where.alignment[1]))
             mech = self._place(sky.hour_angle(where.lst, mech_ra), mech_dec, where.side)
             true = self._place(sky.hour_angle(where.lst, synced[0]), synced[1], where.side)
-            verdict = self._model.add(ModelPoint(mech, true, when, synced[0] % 24.0, synced[1]))
-            self._anchor = mech
+            point = ModelPoint(mech, true, when, synced[0] % 24.0, synced[1])
+            verdict = self._model.add(point)
+            self._anchor = point
             self._save()
         if not verdict.accepted:
             log.warning("%s", verdict.message)
@@ -226,7 +261,7 @@ class PointingFrame:
             alignment = data.get("alignment", [0.0, 0.0])
             self.saved_alignment = (float(alignment[0]), float(alignment[1]))
             anchor = data.get("anchor")
-            self._anchor = None if anchor is None else Place(float(anchor[0]), float(anchor[1]), int(anchor[2]))
+            self._anchor = None if anchor is None else point_from_dict(anchor)
         except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
             log.error("pointing model file %s not read (%s): starting without a model", self._path, exc)
 
@@ -235,7 +270,7 @@ class PointingFrame:
         pointing goes on with the model in memory."""
         if self._path is None:
             return
-        anchor = None if self._anchor is None else [self._anchor.lon, self._anchor.lat, self._anchor.side]
+        anchor = None if self._anchor is None else point_to_dict(self._anchor)
         data = {"model": self._model.to_dict(), "longitude": self._longitude,
                 "alignment": list(self.saved_alignment), "anchor": anchor}
         try:

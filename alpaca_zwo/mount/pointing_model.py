@@ -411,7 +411,7 @@ class PointingModel:
 
     def to_dict(self) -> dict[str, Any]:
         return {"version": 1, "latitude": self.latitude, "altaz": self.altaz, "enabled": self.enabled,
-                "points": [_point_dict(p) for p in self.points]}
+                "points": [point_to_dict(p) for p in self.points]}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PointingModel:
@@ -419,7 +419,7 @@ class PointingModel:
         if data.get("version") != 1:
             raise ValueError("unknown pointing model file version")
         model = cls(float(data["latitude"]), bool(data["altaz"]), bool(data["enabled"]),
-                    [_point_of(p) for p in data["points"]][-MAX_POINTS:])
+                    [point_from_dict(p) for p in data["points"]][-MAX_POINTS:])
         model.refit()
         return model
 
@@ -436,7 +436,7 @@ def _place_dict(place: Place) -> dict[str, float]:
     return {"lon": place.lon, "lat": place.lat, "side": place.side}
 
 
-def _point_dict(point: ModelPoint) -> dict[str, Any]:
+def point_to_dict(point: ModelPoint) -> dict[str, Any]:
     return {"mech": _place_dict(point.mech), "true": _place_dict(point.true), "time": point.time,
             "ra_h": point.ra_h, "dec_deg": point.dec_deg}
 
@@ -448,6 +448,6 @@ def _place_of(data: dict[str, Any]) -> Place:
     return Place(lon % 360.0, lat, side)
 
 
-def _point_of(data: dict[str, Any]) -> ModelPoint:
+def point_from_dict(data: dict[str, Any]) -> ModelPoint:
     return ModelPoint(_place_of(data["mech"]), _place_of(data["true"]), str(data.get("time", "")),
                       float(data.get("ra_h", 0.0)), float(data.get("dec_deg", 0.0)))
