@@ -29,8 +29,9 @@ Alt-az (A TPoint's azimuth, zero due south and 90° east, E elevation)::
 
 Terms enter as the points can determine them (as INDI's SPK adds terms as points grow): one
 point fixes only the two index errors; from then on a group of terms is admitted while the fit
-keeps two equations to spare (2·n ≥ terms + 2), in the order of their usual size on a portable
-mount (index errors, then the polar axis, then collimation and non-perpendicularity, then flexure),
+keeps an equation to spare (2·n ≥ terms + 1: three points fit five terms, four all seven), in the
+order of their usual size on a portable mount (index errors, then the polar axis, then collimation,
+which a meridian flip doubles, then non-perpendicularity, then flexure),
 and a term whose uncertainty the points' geometry would inflate more than ``CONDITION_LIMIT``
 times (CH and NP with every point on one pier side in a narrow band: they then look like IH) is left out. Pure: no
 I/O, no clock, no threads; the mount layer (operations.py) owns the instance, its lock and its file.
@@ -46,8 +47,10 @@ from .. import sky
 
 ARCSEC_PER_DEG = 3600.0
 #: Adoption order: groups enter together (a pair of terms is what a pair of new equations buys).
-EQUATORIAL_GROUPS: tuple[tuple[str, ...], ...] = (("IH", "ID"), ("MA", "ME"), ("CH", "NP"), ("TF",))
-ALTAZ_GROUPS: tuple[tuple[str, ...], ...] = (("IA", "IE"), ("AN", "AW"), ("CA", "NPAE"), ("TF",))
+EQUATORIAL_GROUPS: tuple[tuple[str, ...], ...] = (("IH", "ID"), ("MA", "ME"), ("CH",), ("NP",), ("TF",))
+ALTAZ_GROUPS: tuple[tuple[str, ...], ...] = (("IA", "IE"), ("AN", "AW"), ("CA",), ("NPAE",), ("TF",))
+#: Equations a fit keeps to spare beyond one point's exact index pair (an RMS and σ need at least one).
+SPARE_EQUATIONS = 1
 #: A term is left out when the points' geometry inflates its σ more than this many times over what
 #: the same number of ideally spread points would give (σ·√n / scatter, a variance inflation): CH
 #: beside IH and NP with every point on one pier side in a narrow band of declination, say. Not
@@ -214,12 +217,12 @@ def _solve(names: tuple[str, ...], points: list[ModelPoint], latitude: float, al
 
 def candidate_terms(count: int, altaz: bool) -> tuple[str, ...]:
     """The terms ``count`` points may determine: the index pair from one point, then whole groups
-    while two equations stay spare (2·count ≥ terms + 2)."""
+    while SPARE_EQUATIONS stay spare (2·count ≥ terms + SPARE_EQUATIONS)."""
     if count <= 0:
         return ()
     names: tuple[str, ...] = ()
     for group in ALTAZ_GROUPS if altaz else EQUATORIAL_GROUPS:
-        if names and 2 * count < len(names) + len(group) + 2:
+        if names and 2 * count < len(names) + len(group) + SPARE_EQUATIONS:
             break
         names += group
     return names
