@@ -537,7 +537,12 @@ class Mount:
         self._alignment = (self._alignment[0] + d_ra, self._alignment[1] + after[1] - before[1])
 
     def sync_estimate(self, ra: float, dec: float) -> None:
-        """Adopt exact coordinates the mount already agrees with, without a sync command."""
+        """Adopt exact coordinates the mount already agrees with, without a sync command. Still a point
+        for the pointing model (it confirms it there), which does not move the model's anchor: the
+        mount's own sync offset is still the last sync's."""
+        before = self._mount_frame_position()
+        self.pointing.add_sync(before, (ra, dec), self._where(self._state.side),
+                               self.time.now().isoformat(timespec="seconds"), anchors=False)
         now = self.monotonic()
         with self._estimator_lock:
             self._estimator.set_exact(*self._to_mount((ra, dec), self._state.side), now)

@@ -161,13 +161,16 @@ class PointingFrame:
     # -- learning -----------------------------------------------------------------------------
 
     def add_sync(self, before: tuple[float, float] | None, synced: tuple[float, float], where: Sky,
-                 when: str) -> PointVerdict:
+                 when: str, anchors: bool = True) -> PointVerdict:
         """A sync from mount-frame position ``before`` (``where.alignment`` the offset before it) to
-        ``synced``: a point for the model, and the new anchor. None ``before``: no reading to learn from."""
+        ``synced``: a point for the model, and the new anchor unless ``anchors`` is false (a sync the
+        mount was not sent, as it already agreed: its own offset still belongs to the last one). None
+        ``before``: no reading to learn from."""
         with self._lock:
             if before is None:
-                self._anchor = None
-                self._save()
+                if anchors:
+                    self._anchor = None
+                    self._save()
                 return PointVerdict(False, message="no reading before the sync: nothing learnt")
             mech_ra = before[0] - where.alignment[0]
             mech_dec = max(-90.0, min(90.0, before[1] - where.alignment[1]))
@@ -175,7 +178,8 @@ class PointingFrame:
             true = self._place(sky.hour_angle(where.lst, synced[0]), synced[1], where.side)
             point = ModelPoint(mech, true, when, synced[0] % 24.0, synced[1])
             verdict = self._model.add(point)
-            self._anchor = point
+            if anchors:
+                self._anchor = point
             self._save()
         if not verdict.accepted:
             log.warning("%s", verdict.message)
