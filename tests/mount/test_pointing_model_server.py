@@ -165,3 +165,32 @@ def test_the_model_survives_a_server_restart_and_a_mount_power_cycle(server_fact
     assert action(api)["points"] == points
     misses = blind_misses(api, model, NORTH)
     assert max(misses) < 60.0, f"blind GoTos after the restart missed by {[round(m) for m in misses]}″"
+
+
+def test_a_sync_on_the_shared_zwo_port_is_a_point(server_factory: ServerFactory) -> None:
+    """INDI and other programs on the shared ZWO port sync with ``:Sr :Sd :CM#``: a point like any other."""
+    from alpaca_zwo.config.settings import ZwoPortSettings
+    from alpaca_zwo.zwo import wire_values
+    from tests.bridges.test_zwo_port import ZwoClient
+
+    emulator = EmulatorSettings(speed=SPEED, baud=0, pointing_errors=REALISTIC)
+    server = server_factory(make_settings(emulator=emulator, site=NORTH.settings(),
+                                          zwo_port=ZwoPortSettings(enabled=True, host="127.0.0.1", port=0)))
+    assert server.emulators[0] is not None and server.zwo_port is not None
+    model = server.emulators[0].model
+    api = Api(server.port)
+    api.ok("Connected", Connected=True)
+    api.ok("Tracking", Tracking=True)
+    slew(api, *_radec(api, NORTH, -2.0, 30.0))
+    ra, dec = _true_sky(model)
+    zwo = ZwoClient(server.zwo_port.port)
+    try:
+        assert zwo.ask(f":Sr{wire_values.format_hms(ra)}#") == b"1"
+        assert zwo.ask(f":Sd{wire_values.format_dms(dec)}#") == b"1"
+        assert zwo.ask(":CM#").endswith(b"#")
+    finally:
+        zwo.close()
+    points = action(api)["points"]
+    assert len(points) == 1
+    assert points[0]["ra_h"] == pytest.approx(ra, abs=1 / 3600)  # the wire's whole seconds
+    assert points[0]["dec_deg"] == pytest.approx(dec, abs=1 / 3600)
