@@ -20,7 +20,6 @@ from collections.abc import Callable
 from typing import Any
 
 from .faults import Faults
-from .imperfection import Imperfection, format_terms
 from .model import MountModel
 from .server import EmulatorServer
 
@@ -44,23 +43,12 @@ _FAULTS: dict[str, Callable[[Faults, list[str]], object]] = {
 }
 
 
-def _pointing_errors(model: MountModel, args: list[str]) -> None:
-    """``pointing-errors IH=20,ID=-8`` (or ``none``): new TPOINT terms, the scatter kept."""
-    now = model.imperfection
-    model.set_imperfection(Imperfection.of("".join(args), now.noise.rms_arcsec, now.noise.seed))
-
-
-def _pointing_noise(model: MountModel, args: list[str]) -> None:
-    """``pointing-noise ARCSEC [SEED]``: a new scatter, the terms kept."""
-    now = model.imperfection
-    seed = int(args[1]) if len(args) > 1 else now.noise.seed
-    model.set_imperfection(Imperfection.of(format_terms(now.terms), float(args[0]), seed))
-
-
-#: Changes to the mount's mechanics: name -> what it does, answering like a fault command.
+#: Changes to the mount's mechanics, answering like a fault command: ``pointing-errors IH=20,ID=-8`` (or
+#: ``none``: new TPOINT terms, the scatter kept), ``pointing-noise ARCSEC [SEED]`` (a new scatter, the terms kept).
 _MECHANICS: dict[str, Callable[[MountModel, list[str]], None]] = {
-    "pointing-errors": _pointing_errors,
-    "pointing-noise": _pointing_noise,
+    "pointing-errors": lambda m, a: m.set_imperfection(m.imperfection.with_terms("".join(a))),
+    "pointing-noise": lambda m, a: m.set_imperfection(
+        m.imperfection.with_noise(float(a[0]), int(a[1]) if len(a) > 1 else m.imperfection.noise.seed)),
 }
 #: Read-outs: name -> (the answer's key, how to read it).
 _READOUTS: dict[str, tuple[str, Callable[[EmulatorServer], object]]] = {

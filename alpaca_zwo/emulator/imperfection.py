@@ -67,7 +67,6 @@ __all__ = [
     "NoiseField",
     "altaz_offset",
     "equatorial_offset",
-    "format_terms",
     "parse_terms",
 ]
 
@@ -107,11 +106,6 @@ def parse_terms(text: str) -> dict[str, float]:
             raise ValueError(f"{name}={value:g} is beyond ±{MAX_TERM_ARCMIN:g} arcminutes")
         terms[name] = value
     return terms
-
-
-def format_terms(terms: dict[str, float]) -> str:
-    """The inverse of ``parse_terms``, in ``TERMS`` order ("" when perfect)."""
-    return ",".join(f"{name}={terms[name]:g}" for name in TERMS if terms.get(name))
 
 
 def _tan_sec(angle_deg: float) -> tuple[float, float]:
@@ -215,9 +209,17 @@ class Imperfection:
     @staticmethod
     def of(terms: str = "", noise_arcsec: float = 0.0, seed: int = 0) -> Imperfection:
         """From the command line's forms; ValueError for bad terms or a scatter out of range."""
+        return Imperfection(parse_terms(terms)).with_noise(noise_arcsec, seed)
+
+    def with_terms(self, terms: str) -> Imperfection:
+        """The same scatter, other terms (``parse_terms``'s form); ValueError for bad ones."""
+        return Imperfection(parse_terms(terms), self.noise)
+
+    def with_noise(self, noise_arcsec: float, seed: int) -> Imperfection:
+        """The same terms, another scatter; ValueError for an RMS out of 0-``MAX_NOISE_ARCSEC``."""
         if not 0.0 <= noise_arcsec <= MAX_NOISE_ARCSEC:
             raise ValueError(f"pointing noise must be between 0 and {MAX_NOISE_ARCSEC:g} arcseconds")
-        return Imperfection(parse_terms(terms), NoiseField(float(noise_arcsec), int(seed)))
+        return Imperfection(dict(self.terms), NoiseField(float(noise_arcsec), int(seed)))
 
     @property
     def perfect(self) -> bool:

@@ -181,6 +181,20 @@ def test_noise_is_repeatable_smooth_and_of_the_stated_rms() -> None:
     assert math.hypot(x1 - x0, y1 - y0) < 0.5
 
 
+def test_noise_alone_moves_the_sky_by_the_stated_rms() -> None:
+    """On the sky (arcseconds of great circle, whatever the Dec), over pointings all over the sky."""
+    noisy = Imperfection.of("", 5.0, 11)
+    rng = random.Random(2)
+    squares = []
+    for _ in range(3000):
+        p, s = rng.uniform(-270.0, 90.0), rng.uniform(-90.0, 270.0)
+        outer = abs(s) > 90.0
+        ha, dec = fold(p, s)
+        sky_ha, sky_dec = noisy.equatorial_sky(p, s, ha, dec, 52.5, outer)
+        squares.append((sky.angular_separation(-ha, dec, -sky_ha, sky_dec) * 3600.0) ** 2)
+    assert math.sqrt(sum(squares) / len(squares)) == pytest.approx(5.0, rel=0.1)
+
+
 def test_noise_on_the_sky_is_the_same_for_the_same_pointing() -> None:
     (clock_a, a), (clock_b, b) = make_model("north", "", 20.0, 3), make_model("north", "", 20.0, 3)
     misses = []
@@ -210,10 +224,10 @@ def test_altaz_mode_takes_its_own_terms(site: str) -> None:
 def test_control_port_sets_and_reports_the_errors() -> None:
     _clock, model = make_model("north")
     server = EmulatorServer(model, host="127.0.0.1", port=0, baud=0)
-    assert execute(server, "pointing-errors IH=20,MA=-3") == {"ok": True, "command": "pointing-errors"}
+    assert execute(server, "pointing-errors IH=20.123456789,MA=-3") == {"ok": True, "command": "pointing-errors"}
     assert execute(server, "pointing-noise 4 9") == {"ok": True, "command": "pointing-noise"}
     assert execute(server, "pointing") == {
-        "ok": True, "pointing": {"terms_arcmin": {"IH": 20.0, "MA": -3.0}, "noise_arcsec": 4.0, "seed": 9}}
+        "ok": True, "pointing": {"terms_arcmin": {"IH": 20.123456789, "MA": -3.0}, "noise_arcsec": 4.0, "seed": 9}}
     assert execute(server, "state")["state"]["pointing_errors"]["noise_arcsec"] == 4.0
     assert execute(server, "pointing-errors XX=1")["ok"] is False
     assert execute(server, "pointing-noise -1")["ok"] is False
