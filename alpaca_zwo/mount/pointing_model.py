@@ -40,7 +40,7 @@ I/O, no clock, no threads; the mount layer (operations.py) owns the instance, it
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 from .. import sky
@@ -425,14 +425,6 @@ class PointingModel:
                     [point_from_dict(p) for p in data["points"]][-MAX_POINTS:])
         model.refit()
         return model
-
-    def with_site(self, latitude: float, altaz: bool) -> PointingModel:
-        """This model kept (same set-up) or an empty one for another latitude or mode."""
-        if abs(latitude - self.latitude) < 0.01 and altaz == self.altaz:
-            return self
-        empty = replace(self, latitude=latitude, altaz=altaz, points=[])
-        empty.refit()
-        return empty
 
 
 def _place_dict(place: Place) -> dict[str, float]:

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import math
 import random
+from pathlib import Path
 
 import pytest
 
+from alpaca_zwo.mount.pointing_frame import PointingFrame, Sky
 from alpaca_zwo.mount.pointing_model import (
     Fit,
     ModelPoint,
@@ -174,11 +176,27 @@ def test_switched_off_the_model_corrects_nothing_and_round_trips_through_its_fil
         PointingModel.from_dict({**model.to_dict(), "version": 9})
 
 
-def test_another_site_or_mode_starts_an_empty_model() -> None:
-    model = PointingModel(52.0)
-    model.add(synthetic(REALISTIC, 52.0, False, 0.0)[0])
-    assert model.with_site(52.001, False) is model
-    assert model.with_site(48.0, False).points == [] and model.with_site(52.0, True).points == []
+def test_another_site_or_mode_starts_an_empty_model_and_the_file_keeps_it(tmp_path: Path) -> None:
+    """A GPS refining the site keeps the model; a kilometre away, or the other mode, starts afresh;
+    a new frame on the same file (a server restart) has the same points, switch and fit."""
+    path = tmp_path / "pointing-model-0.json"
+    frame = PointingFrame(path)
+    frame.set_site(52.0, 5.0, False)
+    where = Sky(lst=10.0, side=1, alignment=(0.0, 0.0))
+    frame.add_sync((8.0, 30.0), (8.01, 30.1), where, "2026-12-02T21:00:00+00:00")
+    frame.add_sync((12.0, 60.0), (12.02, 60.05), where, "2026-12-02T21:05:00+00:00")
+    frame.set_enabled(False)
+    again = PointingFrame(path)
+    assert again.report() == frame.report() and len(again.report()["points"]) == 2
+    assert again.report()["enabled"] is False
+    frame.set_site(52.0004, 5.0004, False)  # 40 m
+    assert len(frame.report()["points"]) == 2
+    frame.set_site(52.0, 5.02, False)  # 1.4 km west
+    assert frame.report()["points"] == [] and frame.report()["enabled"] is False
+    frame.add_sync((8.0, 30.0), (8.01, 30.1), where, "")
+    frame.set_site(52.0, 5.02, True)
+    assert frame.report()["points"] == [] and frame.report()["mode"] == "altaz"
+    assert PointingFrame(path).report()["points"] == []
 
 
 def test_two_refused_syncs_that_agree_restart_the_model() -> None:
