@@ -187,11 +187,14 @@ class Mount:
     def _to_client(self, mount: tuple[float, float], side: PierSide) -> tuple[float, float]:
         """A mount-frame position in the client's frame: the pointing model's correction, then the
         sync remainder."""
-        return self._remainder.to_sky(*self.pointing.to_client(mount[0], mount[1], self._where(side)))
+        if self.pointing.applies:
+            mount = self.pointing.to_client(mount[0], mount[1], self._where(side))
+        return self._remainder.to_sky(*mount)
 
     def _to_mount(self, client: tuple[float, float], side: PierSide) -> tuple[float, float]:
         """A client's position as the mount must be given it (the inverse of _to_client)."""
-        return self.pointing.to_mount(*self._remainder.to_mount(*client), self._where(side))
+        mount = self._remainder.to_mount(*client)
+        return self.pointing.to_mount(*mount, self._where(side)) if self.pointing.applies else mount
 
     def client_offset(self, ra: float, dec: float, side: PierSide) -> tuple[float, float]:
         """(RA hours, Dec degrees) the client's frame adds to the mount's near a client position: the

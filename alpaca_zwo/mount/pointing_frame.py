@@ -138,6 +138,11 @@ class PointingFrame:
         return (d_ra - a_ra - fade * sky.wrap_hours_12(m_ra - a_ra),
                 d_dec - a_dec - fade * (m_dec - a_dec))
 
+    @property
+    def applies(self) -> bool:
+        """Whether the model corrects anything now (switched on, with terms): callers skip the rest if not."""
+        return bool(self._model.active.terms)
+
     def to_client(self, ra: float, dec: float, where: Sky) -> tuple[float, float]:
         """A mount-frame reading corrected by the model (still without the sync remainder)."""
         with self._lock:
