@@ -186,11 +186,18 @@ class Term:
 
 @dataclass(frozen=True)
 class Fit:
-    """A least-squares solution: the terms, each point's residual (x, y arcsec) and the RMS (arcsec)."""
+    """A least-squares solution: the terms, each point's residual (x, y arcsec) and the RMS (arcsec).
+
+    ``one_side``: the pier sign of every point when all were taken on one side (0: both sides seen).
+    Such a fit cannot tell ID, CH and NP from offsets that do not flip (on one side ID is any constant
+    Dec offset), so it applies them on both sides as measured, as a single sync does, instead of
+    flipping a guess; the first point on the other side then lets them flip as TPoint defines.
+    """
 
     terms: tuple[Term, ...] = ()
     residuals: tuple[tuple[float, float], ...] = ()
     rms: float = 0.0
+    one_side: int = 0
 
     def value(self, name: str) -> float:
         return next((t.value for t in self.terms if t.name == name), 0.0)
@@ -261,7 +268,8 @@ def fit(points: list[ModelPoint], latitude: float, altaz: bool) -> Fit:
     scatter = math.sqrt(squares / spare) if spare > 0 else None
     terms = tuple(Term(name, value, None if scatter is None else scatter * math.sqrt(max(inverse[i][i], 0.0)))
                   for i, (name, value) in enumerate(zip(names, coefficients, strict=True)))
-    return Fit(terms, tuple(residuals), math.sqrt(squares / len(points)))
+    sides = {point.mech.side for point in points}
+    return Fit(terms, tuple(residuals), math.sqrt(squares / len(points)), sides.pop() if len(sides) == 1 else 0)
 
 
 def _predict(names: tuple[str, ...], coefficients: list[float], at: Place, latitude: float, altaz: bool
@@ -273,6 +281,8 @@ def _predict(names: tuple[str, ...], coefficients: list[float], at: Place, latit
 
 def offsets(model: Fit, at: Place, latitude: float, altaz: bool) -> tuple[float, float]:
     """(Δlon, Δlat) in degrees, mechanical minus true, the model predicts at a mechanical place."""
+    if model.one_side and not altaz:
+        at = Place(at.lon, at.lat, model.one_side)  # Fit.one_side: no flip the points cannot support
     d_lon = d_lat = 0.0
     for term in model.terms:
         p_lon, p_lat = partials(term.name, at, latitude, altaz)

@@ -222,3 +222,18 @@ def test_two_wrong_solves_in_a_row_that_disagree_leave_the_model_alone() -> None
     assert not model.add(ModelPoint(first.mech, Place(first.true.lon + 1.0, first.true.lat, -1))).accepted
     assert not model.add(ModelPoint(second.mech, Place(second.true.lon, second.true.lat - 2.0, -1))).accepted
     assert model.solution == before and len(model.points) == 10
+
+
+def test_points_on_one_side_only_do_not_flip_a_guessed_index_error() -> None:
+    """On one side ID is any constant Dec offset: applied to the other side as measured (as a single
+    sync does), not flipped; once the other side has a point, ID flips as TPoint defines."""
+    east = [p for p in synthetic(REALISTIC, 52.0, False, 0.0) if p.mech.side == 1]
+    west = [p for p in synthetic(REALISTIC, 52.0, False, 0.0) if p.mech.side == -1]
+    one = fit(east[:1], 52.0, False)
+    assert one.one_side == 1
+    here, there = Place(40.0, 30.0, 1), Place(40.0, 30.0, -1)
+    a, b = to_true(one, there, 52.0, False), to_true(one, here, 52.0, False)
+    assert (a.lon, a.lat) == (b.lon, b.lat)
+    both = fit([east[0], west[0]], 52.0, False)
+    assert both.one_side == 0
+    assert to_true(both, there, 52.0, False).lat != pytest.approx(to_true(both, here, 52.0, False).lat)
