@@ -469,6 +469,21 @@ class DeviceFacade:
         finally:
             self._survey_lock.release()
 
+    def pointing_model(self) -> dict[str, Any]:
+        """The pointing model built from syncs (mount/pointing_frame.py): points, terms ± σ, RMS, switch."""
+        return self._telescope.mount.pointing.report()
+
+    def change_pointing_model(self, clear: bool, enabled: bool | None) -> dict[str, Any]:
+        """Clear it and/or switch it on or off, as zwo:PointingModel does; the model as it is then."""
+        pointing = self._telescope.mount.pointing
+        if clear:
+            pointing.clear()
+            log.info("pointing model cleared (setup page)")
+        if enabled is not None:
+            pointing.set_enabled(enabled)
+        self._telescope.mount.refresh()
+        return pointing.report()
+
 
 class ServerFacade:
     """The whole server as the page sees it: settings, devices, clients, bridges."""

@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
+from pathlib import Path
 from typing import Any
 
 from . import __version__
@@ -27,6 +28,7 @@ from .facade import ServerFacade
 from .motion.interlock import Interlock
 from .mount.host_clock import HostClockWatch
 from .mount.operations import Mount, utc_now
+from .mount.pointing_frame import PointingFrame
 from .mount.timekeeping import TimeKeeper
 from .observatory import SafetyResponder, SafetyWatch
 from .telescope.device import Telescope
@@ -132,6 +134,12 @@ class AlpacaZwoServer:
         named = {"stellarium": self.stellarium, "zwo_port": self.zwo_port}
         return {name: bridge for name, bridge in named.items() if bridge is not None}
 
+    def _pointing_path(self, index: int) -> Path | None:
+        """The pointing model's file beside the settings file (docs/pointing-model.md); none when the
+        settings are not saved (tests, --no-save): the model then lives in memory only."""
+        path = self.store.path
+        return None if path is None else path.parent / f"pointing-model-{index}.json"
+
     def _device_url(self, index: int, device: DeviceSettings) -> str:
         if index == 0 and self.overrides.device_url is not None:
             return self.overrides.device_url
@@ -155,7 +163,7 @@ class AlpacaZwoServer:
             link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)
             keeper = TimeKeeper(clock, monotonic, watch=self.host_clock, policy=lambda: self.settings.time.source)
             mount = Mount(link, self._site, clock=clock, monotonic=monotonic, clock_rate=clock_rate,
-                          time_keeper=keeper)
+                          time_keeper=keeper, pointing=PointingFrame(self._pointing_path(index)))
             self.telescopes.append(Telescope(mount, self.store, index, registry=self.registry,
                                              interlock=self.interlock))
         self._start_safety_watch()  # before HTTP serves: a configured monitor refuses motion until it answers

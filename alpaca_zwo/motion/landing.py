@@ -17,6 +17,7 @@ import math
 import time
 from collections.abc import Callable
 
+from .. import sky
 from .._exceptions import (
     LinkError,
     MotionCancelled,
@@ -78,9 +79,10 @@ class Lander:
         now = self.mount.monotonic()
         lst_at = self._lst() + lead_s * SIDEREAL_HOURS_PER_S
         ra_exact = (lst_at - landing.ha) % 24.0
-        # Whole seconds in the mount's frame, which is the client's less the sync remainder.
-        remainder = self.mount.sync_remainder.ra
-        ra_wire = math.ceil((ra_exact - remainder) * 3600.0 - 1e-9) / 3600.0 + remainder
+        # Whole seconds in the mount's frame, which is the client's less the sync remainder and the
+        # pointing model's correction there (constant to far below a second over the landing).
+        offset = self.mount.client_offset(ra_exact, landing.dec, sky.pointing_state(landing.ha))[0]
+        ra_wire = math.ceil((ra_exact - offset) * 3600.0 - 1e-9) / 3600.0 + offset
         landing.t_star = now + lead_s + (ra_wire - ra_exact) / SIDEREAL_HOURS_PER_S
         return ra_wire % 24.0
 

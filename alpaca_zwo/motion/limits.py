@@ -100,7 +100,7 @@ class Limits:
         at_limit = abs(altitude0 - floor0) <= LIMIT_MARGIN_DEG  # on it: may move along it
         flip_deg = _flip_limit(settings, state)
         # The meridian limit is the mount's: it applies to the hour angle its axes point at.
-        ha_shift = sky.wrap_hours_12(self.mount.mechanical_hour_angle(position[0]) - ha0)
+        ha_shift = sky.wrap_hours_12(self.mount.mechanical_hour_angle(*position) - ha0)
         for fraction in (0.0, 0.25, 0.5, 0.75, 1.0):
             ha_deg = ha0 * 15.0 + _travel(v_ha_deg, react) * fraction
             dec = dec0 + _travel(v_dec, react) * fraction

@@ -32,6 +32,7 @@ from ..zwo.protocol import Effect, TrackingState
 from ..zwo.wire_values import Direction, MeridianSettings, MountMode, MountStatus, TrackRate
 from .estimator import PositionEstimator, SyncRemainder, wire_position
 from .pier import DecSense, PierSides
+from .pointing_frame import PointingFrame, Sky, side_sign
 from .settings_cache import DEFAULT_REFRESH_S, SettingsCache
 from .state import PARKED, MountInfo, MountSettings, MountState
 from .timekeeping import TimeKeeper
@@ -63,7 +64,9 @@ class Mount:
     ``site`` supplies the (latitude, east longitude) to push on connect and after a mount
     reboot; ``clock`` is the host's UTC clock (an emulator running fast supplies its own);
     ``time_keeper`` the time reference built on it (``timekeeping.py``: whose clock is right, and
-    whether the mount's clock is set at connect), a default one when not given.
+    whether the mount's clock is set at connect), a default one when not given; ``pointing`` the
+    pointing model between the mount's frame and the client's (pointing_frame.py), an empty one
+    kept in memory when not given.
     """
 
     def __init__(
@@ -79,6 +82,7 @@ class Mount:
         clock_rate: float = 1.0,
         settings_refresh_s: float = DEFAULT_REFRESH_S,
         time_keeper: TimeKeeper | None = None,
+        pointing: PointingFrame | None = None,
     ) -> None:
         self.link = link
         #: Mount time in seconds: pulse windows, motion and reading ages are measured on it. It is
@@ -122,7 +126,9 @@ class Mount:
         #: The mount's own alignment offset (RA hours, Dec degrees) as far as the server made it: the
         #: sum of its syncs since the mount last forgot them. The axes point at the mount's reading
         #: minus it, so the mount chooses GOTO sides and stops at its meridian limit by that hour angle.
-        self._alignment = (0.0, 0.0)
+        #: The pointing model (pointing_frame.py) keeps it across a server restart while the mount keeps it.
+        self.pointing = pointing or PointingFrame()
+        self._alignment = self.pointing.saved_alignment
         #: The meridian setting in force on the mount, as last written or read, a pier flip's temporary
         #: limit included: the side a GOTO lands on depends on it (sky.goto_pier_side). Not the user's
         #: setting, which a flip restores: that one's owner is telescope/stored_settings.py.
@@ -174,8 +180,29 @@ class Mount:
             with self._estimator_lock:
                 predicted = self._estimator.predict(now)
             if predicted is not None:
-                return self._remainder.to_sky(*predicted)
+                return self._to_client(predicted, state.side)
         return state.ra, state.dec
+
+    def _where(self, side: PierSide) -> Sky:
+        return Sky(self.lst(), side_sign(side, self.site()[0]), self._alignment)
+
+    def _to_client(self, mount: tuple[float, float], side: PierSide) -> tuple[float, float]:
+        """A mount-frame position in the client's frame: the pointing model's correction, then the
+        sync remainder."""
+        if self.pointing.applies:
+            mount = self.pointing.to_client(mount[0], mount[1], self._where(side))
+        return self._remainder.to_sky(*mount)
+
+    def _to_mount(self, client: tuple[float, float], side: PierSide) -> tuple[float, float]:
+        """A client's position as the mount must be given it (the inverse of _to_client)."""
+        mount = self._remainder.to_mount(*client)
+        return self.pointing.to_mount(*mount, self._where(side)) if self.pointing.applies else mount
+
+    def client_offset(self, ra: float, dec: float, side: PierSide) -> tuple[float, float]:
+        """(RA hours, Dec degrees) the client's frame adds to the mount's near a client position: the
+        sync remainder plus the model's correction there (a ground landing aims whole mount seconds)."""
+        mount = self._to_mount((ra, dec), side)
+        return sky.wrap_hours_12(ra - mount[0]), dec - mount[1]
 
     @property
     def sync_remainder(self) -> SyncRemainder:
@@ -206,11 +233,16 @@ class Mount:
         """Local sidereal time now, by the clock the mount was given and the site it holds."""
         return sky.local_sidereal_time(self.time.now(), self.site()[1])
 
-    def mechanical_hour_angle(self, ra: float) -> float:
+    def mechanical_hour_angle(self, ra: float, dec: float | None = None) -> float:
         """The hour angle the mount's axes point at (or will) for a client-frame RA: the sync
-        remainder and the mount's own alignment offset taken off. The mount chooses a GOTO's side
-        and stops at its meridian limit by this hour angle, not by the one a client sees."""
-        mount_ra = self._remainder.to_mount(ra, 0.0)[0]
+        remainder, the pointing model's correction (when the Dec is given) and the mount's own
+        alignment offset taken off. The mount chooses a GOTO's side and stops at its meridian limit
+        by this hour angle, not by the one a client sees."""
+        if dec is None:
+            mount_ra = self._remainder.to_mount(ra, 0.0)[0]
+        else:
+            side = sky.pointing_state(self.mechanical_hour_angle(ra))
+            mount_ra = self._to_mount((ra, dec), side)[0]
         return sky.hour_angle(self.lst(), mount_ra - self._alignment[0])
 
     @property
@@ -276,6 +308,7 @@ class Mount:
             self._settle_clock(clock_lost=mount_date.year <= 2000)
             latitude, longitude = self._site()
             self.push_site(latitude, longitude)
+            self.pointing.set_site(*self.site(), status.mode is MountMode.ALTAZ)
             guide_rate = self._exec(protocol.query("Ggr"))
             self._init_generation = generation
             self.settings_cache.mark_stale()  # a new link: possibly another mount, or one reset meanwhile
@@ -295,6 +328,7 @@ class Mount:
                 self._goto_target = None
             self._pushed_site = None
             self._alignment = (0.0, 0.0)
+            self.pointing.mount_forgot()
             with self._pier_lock:
                 self._pier.forget()
                 self._dec_sense.cancel()
@@ -372,6 +406,8 @@ class Mount:
         self._exec(protocol.set_longitude(east_longitude))
         site = (round(latitude * 3600.0) / 3600.0, round(east_longitude * 3600.0) / 3600.0)
         previous, self._pushed_site = self._pushed_site, site
+        if self._init_generation == self.link.generation:  # at initialisation: once the mode is known
+            self.pointing.set_site(site[0], site[1], self._state.altaz)
         if previous is None or (previous[0] < 0.0) != (site[0] < 0.0):
             with self._pier_lock:  # across the equator the same axes are the other pointing state
                 self._pier.forget()
@@ -408,19 +444,19 @@ class Mount:
                     best = (ra, dec)
                 else:
                     best = self._estimator.observe(ra, dec, now, asked)
-            sky_ra, sky_dec = self._remainder.to_sky(*best)
+            sky_ra, sky_dec = self._to_client(best, state.side)
             self._publish(ra=sky_ra, dec=sky_dec, raw_ra=ra, raw_dec=dec, position_time=now)
 
     # -- motion ------------------------------------------------------------------------------
 
     def goto(self, ra: float, dec: float, guard: Guard | None = None) -> tuple[float, float]:
         """Start a GOTO; return the target as the mount received it (whole seconds of RA, whole
-        arcseconds in the mount's frame, plus the sync remainder). MountReplyError carries the
+        arcseconds in the mount's frame) in the client's frame. MountReplyError carries the
         mount's refusal (e3, e5, e6, e7 …); ``guard`` withdraws the :MS# unsent (MotionCancelled)
         if a stop came first."""
         self.ensure_initialised()
         try:
-            remainder, wire = self._send_goto(ra, dec, guard)
+            wire, side = self._send_goto(ra, dec, guard)
         except MountReplyError as exc:
             if exc.code != 7:
                 raise
@@ -428,7 +464,7 @@ class Mount:
             self._init_generation = -1
             self._publish(initialised=False)
             self.ensure_initialised()  # also forgets the sync the mount lost (_check_restart)
-            remainder, wire = self._send_goto(ra, dec, guard)
+            wire, side = self._send_goto(ra, dec, guard)
         with self._estimator_lock:
             self._estimator.invalidate()
             self._goto_target = wire
@@ -437,7 +473,7 @@ class Mount:
             self._pier.goto_sent(predicted, certain, self.monotonic())
             self._dec_sense.cancel()
         self.refresh()
-        return remainder.to_sky(*wire)
+        return self._to_client(wire, side)
 
     def _goto_side(self, mount_ra: float) -> tuple[PierSide, bool]:
         """The side a GOTO to ``mount_ra`` (the mount's frame) lands on by the meridian setting in
@@ -451,25 +487,31 @@ class Mount:
         side = sky.goto_pier_side(ha, PierSide.UNKNOWN, past_limit)
         return side, side is sky.goto_pier_side(ha, PierSide.UNKNOWN, at_meridian)
 
-    def _send_goto(self, ra: float, dec: float, guard: Guard | None) -> tuple[SyncRemainder, tuple[float, float]]:
-        """``:Sr :Sd :MS#`` for a client's target: the mount gets it without the sync remainder."""
-        remainder = self._remainder
-        mount_ra, mount_dec = remainder.to_mount(ra, dec)
+    def _send_goto(self, ra: float, dec: float, guard: Guard | None) -> tuple[tuple[float, float], PierSide]:
+        """``:Sr :Sd :MS#`` for a client's target: the mount gets it in its own frame (the sync remainder
+        and the pointing model's correction on the side it will land taken off). Returns the wire
+        target and that side."""
+        side = self._goto_side(self._remainder.to_mount(ra, dec)[0])[0]
+        mount_ra, mount_dec = self._to_mount((ra, dec), side)
+        side = self._goto_side(mount_ra)[0]  # the model moved the target: the side by where it now is
+        mount_ra, mount_dec = self._to_mount((ra, dec), side)
         wire = wire_position(mount_ra, mount_dec)
         self._exec(protocol.set_target_ra(mount_ra))
         self._exec(protocol.set_target_dec(mount_dec))
         self._exec(protocol.query("MS"), guard=guard)
-        return remainder, wire
+        return wire, side
 
     def sync(self, ra: float, dec: float) -> None:
         """Sync the mount to a client's position. The mount takes it in whole seconds and arcseconds
         and reads exactly those afterwards; the rest becomes the sync remainder (SyncRemainder)."""
         self.ensure_initialised()
         before = self._mount_frame_position()
+        where = self._where(self._state.side)
         self._exec(protocol.set_target_ra(ra))
         self._exec(protocol.set_target_dec(dec))
         self._exec(protocol.query("CM"))
         self._aligned(before, wire_position(ra, dec))
+        self._learn(before, (ra, dec), where)
         now = self.monotonic()
         with self._estimator_lock:
             self._remainder = SyncRemainder.of_sync(ra, dec)
@@ -478,10 +520,16 @@ class Mount:
         self._changed(ra=ra % 24.0, dec=dec, position_time=now)
         self.refresh()
 
+    def _learn(self, before: tuple[float, float] | None, synced: tuple[float, float], where: Sky) -> None:
+        """A sync's point for the pointing model (refused there if it contradicts the model grossly:
+        the sync itself holds, as a single-point sync), and the alignment offset kept with it."""
+        self.pointing.add_sync(before, synced, where, self.time.now().isoformat(timespec="seconds"))
+        self.pointing.note_alignment(self._alignment)
+
     def _mount_frame_position(self) -> tuple[float, float] | None:
-        """The position now as the mount reads it (the sync remainder taken off)."""
+        """The position now as the mount reads it (the model's correction and the sync remainder taken off)."""
         here = self.position()
-        return None if here is None else self._remainder.to_mount(*here)
+        return None if here is None else self._to_mount(here, self._state.side)
 
     def _aligned(self, before: tuple[float, float] | None, after: tuple[float, float]) -> None:
         """A sync moved the mount's readings from ``before`` to ``after``: its alignment offset grows by
@@ -494,10 +542,15 @@ class Mount:
         self._alignment = (self._alignment[0] + d_ra, self._alignment[1] + after[1] - before[1])
 
     def sync_estimate(self, ra: float, dec: float) -> None:
-        """Adopt exact coordinates the mount already agrees with, without a sync command."""
+        """Adopt exact coordinates the mount already agrees with, without a sync command. Still a point
+        for the pointing model (it confirms it there), which does not move the model's anchor: the
+        mount's own sync offset is still the last sync's."""
+        before = self._mount_frame_position()
+        self.pointing.add_sync(before, (ra, dec), self._where(self._state.side),
+                               self.time.now().isoformat(timespec="seconds"), anchors=False)
         now = self.monotonic()
         with self._estimator_lock:
-            self._estimator.set_exact(*self._remainder.to_mount(ra, dec), now)
+            self._estimator.set_exact(*self._to_mount((ra, dec), self._state.side), now)
             self._estimator.set_ra_rate(self._ra_drift(), now)
         self._publish(ra=ra % 24.0, dec=dec, position_time=now)
 
@@ -755,6 +808,7 @@ class Mount:
         with self._estimator_lock:
             self._remainder = SyncRemainder()
         self._alignment = (0.0, 0.0)
+        self.pointing.mount_forgot()
         self._reread_position()
 
     def raw(self, text: str) -> str:
@@ -783,12 +837,16 @@ class Mount:
                 self._remainder = SyncRemainder()
         if code == "NSC":
             self._alignment = (0.0, 0.0)
+            self.pointing.mount_forgot()
+        where = self._where(self._state.side)
         if code in ("St", "Sg"):
             self._pushed_site = None  # no longer what the server pushed: the next push cannot shift
         self._reread_position()
         state = self._state
         if code in ("CM", "SMMC") and state.raw_ra is not None and state.raw_dec is not None:
             self._aligned(before, (state.raw_ra, state.raw_dec))
+            self._learn(before, (state.raw_ra, state.raw_dec), where)
+            self._reread_position()  # read through the new anchor: the reading is the sync point again
 
     # -- polling -----------------------------------------------------------------------------
 
@@ -871,8 +929,8 @@ class Mount:
                 if drift != self._estimator.ra_rate:
                     self._estimator.set_ra_rate(drift, now)
                 best = self._estimator.observe(ra, dec, now, asked)
-        best = self._remainder.to_sky(*best)
         side = self._read_side(ra, dec, now, pier, moving, status)
+        best = self._to_client(best, side)
         return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now, status=status,
                              status_time=now, tracking=tracking, pier=pier, side=side, poll_error="", park=park)
 

@@ -110,6 +110,18 @@ def _points(value: object) -> list[list[float]]:
     return [[float(az), float(alt)] for az, alt in value]
 
 
+def _boolean(value: object) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f"must be true or false, got {json.dumps(value)}")
+    return value
+
+
+def _true(value: object) -> bool:
+    if value is not True:
+        raise ValueError(f"must be true (it clears every point), got {json.dumps(value)}")
+    return True
+
+
 @dataclass(frozen=True)
 class Field:
     """A writable key of an action's parameter object."""
@@ -302,6 +314,20 @@ def _read_safety(telescope: ActionDevice) -> Reply:
             "state": verdict.state.value, "reason": verdict.reason}
 
 
+def _read_pointing_model(telescope: ActionDevice) -> Reply:
+    """The pointing model (docs/pointing-model.md): its points with residuals, terms ± σ, RMS, switch."""
+    return telescope.mount.pointing.report()
+
+
+def _write_pointing_model(telescope: ActionDevice, changes: Reply) -> None:
+    if changes.get("clear"):
+        telescope.mount.pointing.clear()
+        log.info("pointing model cleared (zwo:PointingModel)")
+    if "enabled" in changes:
+        telescope.mount.pointing.set_enabled(changes["enabled"])
+    telescope.mount.refresh()  # the position reads through the changed model at the next poll
+
+
 # ================================================================================================
 # The table
 # ================================================================================================
@@ -348,6 +374,11 @@ ACTIONS: tuple[ZwoAction, ...] = (
               {"min_altitude_deg": Field(_number(-10.0, 60.0), "-10..60 degrees"),
                "horizon": Field(_points, "[[azimuth, altitude], ...] in degrees, [] for none")},
               _write_horizon, '{"min_altitude_deg": 5, "horizon": [[0, 10], [90, 20], [180, 15]]}'),
+    ZwoAction("zwo:PointingModel", "The pointing model built from syncs: points, residuals, terms ± σ and RMS; "
+              "clears it or switches it on and off (docs/pointing-model.md).", _read_pointing_model,
+              {"enabled": Field(_boolean, "true or false: apply the model"),
+               "clear": Field(_true, "true: forget every point")},
+              _write_pointing_model, '{"enabled": false}'),
     ZwoAction("zwo:Safety", "The observatory interlock: whether motion may start by the configured SafetyMonitor "
               "and roof, which device decided, since when, and why (read-only).", _read_safety),
 )

@@ -269,7 +269,7 @@ class Telescope:
             return int(PierSide.UNKNOWN)  # an alt-az mount has no pier side (ASCOM pierUnknown)
         if state.side is not PierSide.UNKNOWN:  # the letter as the mount's convention means it (mount/pier.py)
             return int(state.side)
-        return int(sky.pointing_state(self.mount.mechanical_hour_angle(self._position()[0])))
+        return int(sky.pointing_state(self.mount.mechanical_hour_angle(*self._position())))
 
     def set_side_of_pier(self, value: int) -> None:
         """Flip to the other pointing state on the current position: a GOTO under a meridian limit
@@ -289,7 +289,7 @@ class Telescope:
         ra, dec = self._position()
         # One frame: the mount applies the limit to the hour angle its axes point at, which a sync
         # has moved away from the one a client sees; so the limit and the refusal use that one.
-        ha = self.mount.mechanical_hour_angle(ra)
+        ha = self.mount.mechanical_hour_angle(ra, dec)
         limit = sky.side_limit_deg(ha, PierSide(value))
         if limit is None:
             side = "pierEast" if value == PierSide.EAST else "pierWest"
@@ -307,7 +307,7 @@ class Telescope:
         self.connection.require_connected()
         if self._altaz_mode():
             return int(PierSide.UNKNOWN)  # no pier side to predict in alt-az mode
-        ha = self.mount.mechanical_hour_angle(right_ascension)  # the mount chooses by its axes' hour angle
+        ha = self.mount.mechanical_hour_angle(right_ascension, declination)  # the mount chooses by its axes' hour angle
         side_rule = sky.kept_goto_side if self.capabilities.flips_by_limit() else sky.goto_pier_side
         return int(side_rule(ha, self._pier(), self.stored_settings.flip_line_deg()))
 
@@ -371,7 +371,7 @@ class Telescope:
     def _goto(self, ra: float, dec: float) -> Motion:
         self._check_goto(ra, dec)
         try:
-            return self.flips.goto(ra, dec, self._keep_east_setting(ra))
+            return self.flips.goto(ra, dec, self._keep_east_setting(ra, dec))
         except AlpacaError as exc:
             if isinstance(exc.__cause__, MountReplyError):  # e5#/e6#: its limits may have changed over WiFi
                 self.mount.settings_cache.mark_stale()
@@ -403,12 +403,13 @@ class Telescope:
         upper = 90.0 if stored.upper_limit is None else float(stored.upper_limit)
         return pointing.MountAltitudeLimits(lower, upper)
 
-    def _keep_east_setting(self, ra: float) -> MeridianSettings | None:
+    def _keep_east_setting(self, ra: float, dec: float) -> MeridianSettings | None:
         """The temporary limit that keeps a mount on pierEast there past the meridian (sky.kept_goto_side),
         None where the mount's own setting gives the side DestinationSideOfPier promises."""
         if not self.capabilities.flips_by_limit():
             return None  # alt-az, or firmware without :STa: the mount's own rule
-        ha, side, own_limit = self.mount.mechanical_hour_angle(ra), self._pier(), self.stored_settings.flip_line_deg()
+        ha, side = self.mount.mechanical_hour_angle(ra, dec), self._pier()
+        own_limit = self.stored_settings.flip_line_deg()
         limit = sky.side_limit_deg(ha, PierSide.EAST)
         if limit is None or sky.kept_goto_side(ha, side, own_limit) is sky.goto_pier_side(ha, side, own_limit):
             return None
