@@ -220,6 +220,14 @@ def _host_port(value: Any) -> str:
     return text
 
 
+def _split_url(text: str, example: str) -> urllib.parse.SplitResult:
+    """``urlsplit``, its ValueError (an unclosed IPv6 bracket: ``http://[``) refused in words."""
+    try:
+        return urllib.parse.urlsplit(text)
+    except ValueError:
+        raise _Invalid(f"is not a URL; give one such as {example}") from None
+
+
 def _device_url(device_type: str) -> Check:
     """An Alpaca device's URL, ``http(s)://host[:port]/api/v1/<device_type>/<number>``, or "" (none).
 
@@ -237,10 +245,7 @@ def _device_url(device_type: str) -> Check:
         example = f"http://192.168.1.30:11111/api/v1/{device_type}/0"
         if "://" not in text:  # "192.168.1.30:11111/api/v1/..." as the page's label writes it: plain http
             text = "http://" + text
-        try:
-            parts = urllib.parse.urlsplit(text)
-        except ValueError:  # "[" with http:// put before it: an unclosed IPv6 bracket
-            raise _Invalid(f"is not a URL; give one such as {example}") from None
+        parts = _split_url(text, example)
         if parts.scheme.lower() not in ("http", "https") or not parts.netloc:
             raise _Invalid(f"must be an http:// or https:// URL of an Alpaca {device_type} such as {example}")
         if parts.username is not None or parts.password is not None:

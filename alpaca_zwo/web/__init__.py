@@ -3,9 +3,10 @@
 One module per job: ``files`` (the page and its static files), ``status`` (the status feed),
 ``settings`` (the settings API, server settings included), ``commands`` (the controls), ``trace``
 (the serial trace), ``logview`` (the log view), ``guide`` (the user guide at ``/docs``), ``observatory``
-(the safety interlock's state and finding its devices), ``pointing`` (the pointing model), ``survey`` (the
-owner's survey), ``http`` (security and JSON plumbing) and ``context`` (what the routes share). The package talks to the rest of the server only through
-:mod:`alpaca_zwo.facade`; ``goto`` and ``skyview`` read the object catalogue (:mod:`alpaca_zwo.catalogue`,
+(the safety interlock's state and finding its devices), ``pointing`` (the pointing model), ``survey``
+(the owner's survey), ``http`` (security and JSON plumbing) and ``context`` (what the routes share).
+The package talks to the rest of the server only through :mod:`alpaca_zwo.facade`; ``goto`` and
+``skyview`` read the object catalogue (:mod:`alpaca_zwo.catalogue`,
 pure data and search) on their first request.
 
 May import ``alpaca_zwo.facade``, ``alpaca_zwo.catalogue`` and itself, nothing else of the package (a test checks).
