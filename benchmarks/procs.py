@@ -128,10 +128,11 @@ class Emulator:
                 "exchanges": totals["exchanges"], "replies": totals["replies"]}
 
 
-def start_emulator(run_dir: Path, baud: int, cpus: tuple[int, ...] | None) -> Emulator:
-    """The emulator at ``baud``; DEBUG logging stamps every request when its last byte arrives."""
+def start_emulator(run_dir: Path, baud: int, cpus: tuple[int, ...] | None, extra: tuple[str, ...] = ()) -> Emulator:
+    """The emulator at ``baud``; DEBUG logging stamps every request when its last byte arrives. ``extra``:
+    more of its options (``--start-time``, ``--mode`` ...)."""
     argv = [sys.executable, "-m", "alpaca_zwo.emulator", "--port", "0", "--baud", str(baud), "--control-port", "0",
-            "--log-level", "DEBUG"]
+            "--log-level", "DEBUG", *extra]
     proc = _spawn("emulator", argv, run_dir, {"tcp": r"^tcp [\d.]+:(\d+)$", "control": r"^control [\d.]+:(\d+)$"},
                   cpus=cpus)
     return Emulator(proc)
