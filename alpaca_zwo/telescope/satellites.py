@@ -37,6 +37,9 @@ MAX_SETS = 50
 #: A follow starts only for a pass that enters the allowed sky within this time: Slewing stays true
 #: from the start, and a mount held for an hour would keep every other client waiting.
 MAX_WAIT_S = 900.0
+#: A set further than this from now is not followed: the ISS's along-track error grows to minutes of
+#: time within weeks (drag), so the mount would wait where the satellite never passes.
+FOLLOW_MAX_AGE_DAYS = 14.0
 #: The point the mount waits at lies this far above where the pass enters the allowed sky, so the GOTO
 #: there is inside every limit when it is sent, a slew's time before the mount lands.
 AIM_ABOVE_DEG = 0.5
@@ -151,6 +154,10 @@ class Satellites:
         """Start following the next pass of ``tle`` that can be followed: under way now, or entering the
         allowed sky within ``MAX_WAIT_S``. The pass it follows."""
         now = self._mount.time.now()
+        if abs(tle.age_days(now)) > FOLLOW_MAX_AGE_DAYS:
+            raise InvalidOperation(f"{tle.name}: its elements are {abs(tle.age_days(now)):.0f} days from now "
+                                   f"(epoch {tle.epoch:%Y-%m-%d}); after {FOLLOW_MAX_AGE_DAYS:g} days a pass comes "
+                                   "minutes off its prediction: load a fresh set")
         where = self.sky()
         found = passes(tle, where, now, hours=MAX_WAIT_S / 3600.0, limit=1)
         if not found:

@@ -3,7 +3,8 @@
 One module per job: ``files`` (the page and its static files), ``status`` (the status feed),
 ``settings`` (the settings API, server settings included), ``commands`` (the controls), ``trace``
 (the serial trace), ``logview`` (the log view), ``observatory`` (the safety interlock's state and
-finding its devices), ``http`` (security and JSON plumbing) and
+finding its devices), ``satellites`` (kept TLE sets, their passes, following one: issue 41),
+``http`` (security and JSON plumbing) and
 ``context`` (what the routes share). The package talks to the rest of the server only through
 :mod:`alpaca_zwo.facade`; ``goto`` and ``skyview`` read the object catalogue (:mod:`alpaca_zwo.catalogue`,
 pure data and search) on their first request.
@@ -24,6 +25,7 @@ from .goto import GotoResource, GotoVerdict, ObjectDetails, ObjectSearch, SyncRe
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
 from .observatory import SafetyDiscoverResource, SafetyResource
+from .satellites import FollowResource, SatellitesResource
 from .settings import ServerResource, SettingsResource
 from .skyview import SkyResource
 from .status import StatusResource
@@ -60,6 +62,8 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/telescope/{number}/goto/verdict", GotoVerdict(web)),
         ("/setup/api/telescope/{number}/sync", SyncResource(web)),
         ("/setup/api/telescope/{number}/sky", SkyResource(web)),
+        ("/setup/api/telescope/{number}/satellites", SatellitesResource(web)),
+        ("/setup/api/telescope/{number}/satellites/follow", FollowResource(web)),
         ("/setup/api/telescope/{number}/trace.txt", TraceText(web)),
     ]
 
