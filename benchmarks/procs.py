@@ -139,7 +139,7 @@ def start_emulator(run_dir: Path, baud: int, cpus: tuple[int, ...] | None, extra
 
 
 def start_alpaca_zwo(run_dir: Path, device_port: int, cpus: tuple[int, ...] | None, *,
-                     threads: int | None = None, patches: str = "") -> Proc:
+                     threads: int | None = None, patches: str = "", env: dict[str, str] | None = None) -> Proc:
     """``python -m alpaca_zwo`` with a fresh config file, exactly as the README starts it.
 
     ``threads`` overrides the config's waitress worker-thread count (for the thread sweep);
@@ -151,7 +151,8 @@ def start_alpaca_zwo(run_dir: Path, device_port: int, cpus: tuple[int, ...] | No
     module = ["-m", "benchmarks.patched_server", "--patch", patches, "--"] if patches else ["-m", "alpaca_zwo"]
     argv = [sys.executable, *module, "--host", "127.0.0.1", "--port", "0", "--discovery-port", "0",
             "--config", str(config), "--device", f"socket://127.0.0.1:{device_port}"]
-    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH", "")]))}
+    paths = [str(REPO), os.environ.get("PYTHONPATH", ""), (env or {}).get("PYTHONPATH", "")]
+    env = {**(env or {}), "PYTHONPATH": os.pathsep.join(filter(None, paths))}
     return _spawn("alpaca-zwo", argv, run_dir, {"http": r"Alpaca API:\s+http://127\.0\.0\.1:(\d+)/"}, cpus=cpus,
                   env=env)
 

@@ -1,8 +1,12 @@
 """Issue 41: a satellite's pass followed by the server, measured against SGP4 in real time.
 
 Each scenario starts the emulator (``--start-time`` 45 s before the pass enters the sky, its site and
-mode) and alpaca-zwo against it as a user starts them, the server keeping the mount's clock
-(``[time] source = "mount"``), so the pass happens "now" for both. A client connects and starts the
+mode) and alpaca-zwo against it as a user starts them, the server's wall clock moved by libfaketime
+(``LD_PRELOAD``, the offset measured from the emulator's clock to the millisecond, monotonic clock
+real, tests/support/faketime's ``time.sleep`` mend) and trusted as synchronised, as an NTP-disciplined
+computer's is: so the pass happens "now" for both, within a few milliseconds. (Keeping the mount's clock
+instead would put the server up to a second off: the mount's clock reads whole seconds, and at the ISS's
+1°/s overhead that alone is tens of arcminutes.) A client connects and starts the
 follow with ``zwo:TrackSatellite`` and the shipped TLE; every 0.1 s the emulator's control port says
 where the tube points (``state``: RA/Dec, the emulated UTC), which is compared with SGP4's place then.
 The figures count from acquisition (the first sample within 1′ after the follow began) to the end of the
@@ -88,10 +92,27 @@ def _pick(scenario: Scenario, tle: Tle, where: Sky) -> Pass:
     return max(found, key=lambda p: _max_dec(tle, where, p))
 
 
+FAKETIME_LIBRARY = "/usr/lib/x86_64-linux-gnu/faketime/libfaketime.so.1"  # Debian's libfaketime
+
+
 def _config(run_dir: Path, scenario: Scenario) -> None:
     (run_dir / "config.toml").write_text(
         f"[site]\nlatitude = {scenario.latitude}\nlongitude = {scenario.longitude}\nelevation = 50.0\n\n"
-        '[time]\nsource = "mount"\n', encoding="utf-8")
+        '[time]\nsource = "host"\n', encoding="utf-8")
+
+
+def _clock_offset(emulator: Any) -> float:
+    """The emulated universe's UTC minus this computer's (seconds), read in the middle of a control call."""
+    before = time.time()
+    state = emulator.control("state")["state"]
+    after = time.time()
+    return datetime.fromisoformat(state["true_utc"]).timestamp() - (before + after) / 2.0
+
+
+def _faked_clock(offset_s: float) -> dict[str, str]:
+    return {"LD_PRELOAD": FAKETIME_LIBRARY, "FAKETIME": f"{offset_s:+.4f}", "FAKETIME_DONT_FAKE_MONOTONIC": "1",
+            "FAKETIME_NO_CACHE": "1", "ALPACA_ZWO_HOST_CLOCK": "synchronised",
+            "PYTHONPATH": str(Path(__file__).resolve().parent.parent / "tests" / "support" / "faketime")}
 
 
 def _progress(client: AlpacaClient) -> dict[str, Any]:
@@ -107,7 +128,7 @@ def fly(scenario: Scenario, run_dir: Path, limit_s: float | None) -> dict[str, A
     emulator = start_emulator(run_dir, 9600, None, ("--start-time", start.isoformat(), "--initialized",
                                                     "--latitude", str(scenario.latitude), "--longitude",
                                                     str(scenario.longitude), "--mode", scenario.mode))
-    server = start_alpaca_zwo(run_dir, emulator.proc.ports["tcp"], None)
+    server = start_alpaca_zwo(run_dir, emulator.proc.ports["tcp"], None, env=_faked_clock(_clock_offset(emulator)))
     client = AlpacaClient("127.0.0.1", server.port)
     try:
         client.put("connected", Connected="true")
