@@ -23,7 +23,7 @@ from alpaca_zwo.motion.kinds import MotionKind
 from alpaca_zwo.telescope.orbits import parse_tles
 from alpaca_zwo.telescope.passes import Pass, Sky, passes
 from alpaca_zwo.telescope.satellites import Satellites
-from alpaca_zwo.zwo.wire_values import Direction
+from alpaca_zwo.zwo.wire_values import Direction, MountMode
 from tests.conftest import make_settings
 from tests.support.wait import wait_until
 from tests.telescope.parts import Rig, parts_rig
@@ -43,10 +43,12 @@ def _satellites(rig: Rig, tmp_path: Path) -> Satellites:
                       mount_limits=lambda: None, flip_line_deg=lambda: 0.0, folder=tmp_path)
 
 
-def test_a_low_pass_is_followed_within_an_arcminute_and_a_stop_ends_it(tmp_path: Path) -> None:
+@pytest.mark.parametrize("mode", [MountMode.EQUATORIAL, MountMode.ALTAZ], ids=["equatorial", "altaz"])
+def test_a_low_pass_is_followed_within_an_arcminute_and_a_stop_ends_it(tmp_path: Path, mode: MountMode) -> None:
     chosen = _pass(5.0, 15.0)
     # The emulated universe starts 40 s before the pass enters the sky.
-    with parts_rig(tmp_path, clock=ScaledClock(1.0, start_utc=chosen.enters - timedelta(seconds=40))) as rig:
+    clock = ScaledClock(1.0, start_utc=chosen.enters - timedelta(seconds=40))
+    with parts_rig(tmp_path, clock=clock, mode=mode) as rig:
         rig.mount.connect()
         satellites = _satellites(rig, tmp_path)
         satellites.add(ISS.text)
