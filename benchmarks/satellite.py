@@ -25,7 +25,6 @@ import argparse
 import json
 import math
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
@@ -41,6 +40,7 @@ from benchmarks.procs import start_alpaca_zwo, start_emulator
 from tests.conftest import make_settings
 
 TLE_DIR = Path(__file__).resolve().parent.parent / "tests" / "support" / "tle"
+RESULTS = Path(__file__).resolve().parent / "results"
 LEAD_IN_S = 45.0
 ACQUIRED_ARCMIN = 1.0
 
@@ -202,14 +202,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--limit-s", type=float, default=None, help="stop judging this long after acquisition")
     args = parser.parse_args(argv)
     wanted = args.only.split(",")
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
     results = []
     for scenario in SCENARIOS:
         if scenario.name not in wanted:
             continue
-        with tempfile.TemporaryDirectory(prefix=f"sat-{scenario.name}-") as folder:
-            result = fly(scenario, Path(folder), args.limit_s)
+        run_dir = RESULTS / f"satellite-{stamp}" / scenario.name  # the processes' logs, kept (git-ignored)
+        run_dir.mkdir(parents=True)
+        result = fly(scenario, run_dir, args.limit_s)
         results.append(result)
         print(json.dumps(result), flush=True)
+    (RESULTS / f"satellite-{stamp}.json").write_text(json.dumps(results, indent=1), encoding="utf-8")
     print("\n| scenario | pass (max alt, max Dec) | acquired after | followed | RMS | worst | p95 | server CPU "
           "| ended |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
