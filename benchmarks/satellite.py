@@ -146,7 +146,6 @@ def _measure(scenario: Scenario, tle: Tle, where: Sky, chosen: Pass, emulator: A
     acquired: datetime | None = None
     cpu_from: tuple[float, float] | None = None
     progress: dict[str, Any] = {}
-    next_progress = 0.0
     ended_at: float | None = None
     while True:
         tick = time.monotonic()
@@ -154,9 +153,7 @@ def _measure(scenario: Scenario, tle: Tle, where: Sky, chosen: Pass, emulator: A
         utc = datetime.fromisoformat(state["true_utc"])
         spot = where.place(tle, utc)
         error = sky.angular_separation(state["ra_h"], state["dec_deg"], spot.ra_hours, spot.dec_deg) * 60.0
-        if tick >= next_progress:
-            progress = _progress(client)
-            next_progress = tick + 1.0
+        progress = _progress(client)  # every sample, as a client polling the follow: no sample after its end
         following = progress.get("phase") == "following"
         if following and acquired is None and error <= ACQUIRED_ARCMIN:
             acquired = utc
