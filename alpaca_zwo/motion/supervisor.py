@@ -626,6 +626,9 @@ class MotionSupervisor:
         """A follow's phases (follow.py): the slew to the entry point ends as any GOTO's does (the flags),
         then the follower steers until the pass, the limits or a failure end it."""
         if follow.phase == "aiming":
+            if self.mount.time.now() >= follow.leaves:
+                self._end_following(motion, follow, "the pass ended before the slew to it did", now)
+                return
             if state.status_time is None or state.status_time <= motion.started or state.status is None:
                 return
             if state.status.slewing:
