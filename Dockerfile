@@ -11,6 +11,8 @@ WORKDIR /src
 COPY pyproject.toml README.md ./
 COPY alpaca_zwo ./alpaca_zwo
 COPY static ./static
+# docs/: the user guide the server serves at /docs (package data of alpaca_zwo.docs)
+COPY docs ./docs
 RUN pip install . && rm -rf /src
 
 # A non-root user that may open serial ports (dialout) and owns the config volume.

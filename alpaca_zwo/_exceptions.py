@@ -144,19 +144,64 @@ class SettingsNotSaved(DriverError):
     number = ERR_SETTINGS_NOT_SAVED
 
 
-def driver_error(what: str, exc: Exception) -> DriverError:
-    """The DriverError a client sees for a link or mount failure during ``what`` (one wording for all)."""
+#: The one table of the mount's ``eN#`` refusals as a client is told them: the ASCOM error and plain words
+#: that say what to do. The codes are the vendor's v1.7 table, confirmed on the wire for 2, 6, 7, 11 and 14
+#: (real-transcripts-1.8.8.md §2 item 10: ``e7#`` from an unsynchronised AM3 and AM5, ``e6#`` at ~9°
+#: altitude, ``e2#`` for ``:Sd`` with 60 seconds, ``e11`` for ``:CM#`` at home, ``e14#`` to every motion
+#: while parked). ``{request}`` is the command the mount refused. Codes not listed stay a DriverError
+#: (ERR_MOUNT_REFUSED) with the mount's meaning; 3 and 4 ("busy") are worded by :func:`_busy_words`.
+MOUNT_REFUSALS: dict[int, tuple[type[AlpacaError], str]] = {
+    2: (InvalidValue, "the mount rejected {request} as malformed (e2): a value it cannot take, or a server bug "
+                      "worth reporting with the log"),
+    5: (InvalidValue, "the target is below the horizon (e5)"),
+    6: (InvalidValue, "the target is outside the mount's altitude limits (e6): below its lower limit or above its "
+                      "upper limit (the setup page shows them)"),
+    7: (InvalidOperation, "the mount's time and site are not set (e7): disconnect and connect again so the server "
+                          "sends them, or check the site on the setup page"),
+    11: (InvalidOperation, "the mount refuses a sync at its home position (e11): slew or move away from home "
+                           "first, then sync"),
+    14: (Parked, "the mount is parked by its own firmware (e14; the ZWO app, ASIAIR or a hand controller parks "
+                 "it so, and the park survives power cycles): Unpark first"),
+}
+_BUSY_CODES = (3, 4)
+
+
+def _busy_words(code: int, moving: bool | None) -> str:
+    """"The mount is moving" only when it is: a ZWO mount also answers busy while braking, and older
+    firmware (and this project's emulator before 1.8.8 was modelled) answered a parked mount so."""
+    if moving:
+        return f"the mount is moving (e{code}): wait until Slewing is false, or AbortSlew"
+    return (f"the mount answered busy (e{code}) although no motion is seen: it may still be braking, or be "
+            "parked by its own firmware; check Slewing and AtPark and try again")
+
+
+def driver_error(what: str, exc: Exception, moving: bool | None = None) -> AlpacaError:
+    """The error a client sees for a link or mount failure during ``what`` (one wording for all).
+
+    A mount refusal becomes the ASCOM error its code means (:data:`MOUNT_REFUSALS`); ``moving``: whether
+    the caller sees the mount move, which decides the words of a "busy" refusal (None: unknown)."""
     if isinstance(exc, MountReplyError):
-        return DriverError(f"{what}: the mount refused: {exc.meaning or exc.reply}", ERR_MOUNT_REFUSED)
+        return refusal_error(what, exc, moving)
     if isinstance(exc, ProtocolError):
         return DriverError(f"{what}: garbled reply from the mount: {exc}", ERR_MOUNT_PROTOCOL)
     return DriverError(f"{what}: mount link problem: {exc}", ERR_LINK)
 
 
+def refusal_error(what: str, exc: MountReplyError, moving: bool | None = None) -> AlpacaError:
+    """A mount refusal in the client's terms: the table's ASCOM error and words, else a DriverError."""
+    code = exc.code
+    if code in MOUNT_REFUSALS:
+        error, words = MOUNT_REFUSALS[code]
+        return error(f"{what}: {words.format(request=exc.request)}")
+    if code in _BUSY_CODES:
+        return InvalidOperation(f"{what}: {_busy_words(code, moving)}")
+    return DriverError(f"{what}: the mount refused: {exc.meaning or exc.reply}", ERR_MOUNT_REFUSED)
+
+
 @contextmanager
-def mount_errors(what: str) -> Iterator[None]:
-    """Within the block, link and mount failures become :func:`driver_error`'s DriverErrors."""
+def mount_errors(what: str, moving: bool | None = None) -> Iterator[None]:
+    """Within the block, link and mount failures become :func:`driver_error`'s errors."""
     try:
         yield
     except (MountReplyError, ProtocolError, LinkError) as exc:
-        raise driver_error(what, exc) from exc
+        raise driver_error(what, exc, moving) from exc

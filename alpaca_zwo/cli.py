@@ -16,9 +16,12 @@ from .alpaca.listen_check import host_problem, listen_problem, port_in_use
 from .config.file import default_config_path, load_settings, remove_stale_temp_files
 from .config.settings import Settings
 from .config.store import SettingsStore
-from .server import AlpacaZwoServer, Overrides
+from .server import AlpacaZwoServer, EmbeddedEmulator, Overrides
 from .service import KINDS, render
 from .zwo.devices import DeviceError, check_device, find_mount, format_candidates, list_candidates
+from .zwo.firmware import PRESETS
+from .zwo.link import Link
+from .zwo.survey import SurveyContext, SurveyReport, run_survey
 
 log = logging.getLogger("alpaca_zwo")
 
@@ -55,6 +58,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--emulator-mode", choices=("eq", "altaz"),
                         help="start the built-in emulator in equatorial or alt-az mode (default from the config "
                              "file: eq)")
+    parser.add_argument("--emulator-preset", choices=tuple(PRESETS), metavar="NAME",
+                        help="the built-in emulator's firmware: one of " + ", ".join(PRESETS)
+                             + " (default from the config file's [emulator] preset)")
+    parser.add_argument("--survey", action="store_true",
+                        help="ask the mount (--device, or the built-in emulator) only questions that move and "
+                             "change nothing, write every exchange with its timing to a report file, say which "
+                             "firmware variants its answers settle, then exit (docs/survey.md)")
+    parser.add_argument("--survey-out", type=Path, metavar="FILE",
+                        help="where --survey writes its report (default: alpaca-zwo-survey-<UTC time>.txt in the "
+                             "current directory)")
     parser.add_argument("--zwo-port", type=int, metavar="N",
                         help="serve the mount's own ZWO protocol on TCP port N for INDI and other ZWO/LX200 "
                              "drivers (like the mount's WiFi port 4030), shared with Alpaca; for this run only")
@@ -165,6 +178,49 @@ def _clean_temp_files(path: Path) -> None:
         log.info("removed %d stale temporary settings file(s) in %s", len(removed), path.parent)
 
 
+def _survey_report(args: argparse.Namespace, settings: Settings) -> SurveyReport:
+    """The survey on the first device (or the built-in emulator), before any server touches the mount:
+    nothing else is on the line, so the recorded timing is the mount's own."""
+    device = settings.devices[0]
+    url = args.device or device.url
+    emulator = None
+    if not url:
+        baud = settings.emulator.baud if args.emulator_baud is None else args.emulator_baud
+        emulator = EmbeddedEmulator(settings, 1.0, baud, args.emulator_mode, args.emulator_preset)
+    link = Link(emulator.url if emulator else url, baud=device.baud, timeout=device.timeout)
+    try:
+        link.open()
+        preset_name = emulator.model.firmware.name if emulator else ""
+        return run_survey(link.exchange, SurveyContext.here(__version__, url, preset_name))
+    finally:
+        link.close()
+        if emulator is not None:
+            emulator.stop()
+
+
+def _survey(args: argparse.Namespace, settings: Settings) -> int:
+    """``--survey``: run it, write the report, print the verdict and where the file is."""
+    try:
+        report = _survey_report(args, settings)
+    except AlpacaZwoError as exc:
+        print(f"alpaca-zwo: survey failed: {exc}", file=sys.stderr)
+        return 1
+    out: Path = args.survey_out or Path(report.file_name())
+    try:
+        out.write_text(report.text(), encoding="utf-8")
+    except OSError as exc:
+        print(report.text(), end="")
+        print(f"alpaca-zwo: could not write the survey report to {out}: {exc}", file=sys.stderr)
+        return 1
+    print(f"mount: {report.identity()}")
+    for verdict in report.verdicts():
+        print("  " + verdict.line())
+    if report.stopped:
+        print(f"survey stopped early: {report.stopped}")
+    print(f"survey report written to {out.absolute()}", flush=True)
+    return 1 if report.stopped else 0
+
+
 def server_main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     path = args.config or default_config_path()
@@ -182,10 +238,13 @@ def server_main(argv: list[str] | None = None) -> int:
         print(f"alpaca-zwo: configuration error: {exc}", file=sys.stderr)
         return 2
     _configure_logging(args.log_level or settings.logging.level, settings.logging.file)
+    if args.survey:
+        return _survey(args, settings)
     _clean_temp_files(path)
     overrides = Overrides(host=args.host, port=args.port, discovery_port=args.discovery_port,
                           device_url=args.device, mdns=args.mdns, emulator_speed=args.emulator_speed,
                           emulator_baud=args.emulator_baud, emulator_mode=args.emulator_mode,
+                          emulator_preset=args.emulator_preset,
                           stellarium_port=args.stellarium_port,
                           zwo_port=args.zwo_port)
     from .web import setup_routes

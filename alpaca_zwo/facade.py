@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from . import __version__
-from ._exceptions import AlpacaError, InvalidValue, LinkError, MountReplyError, ProtocolError
+from ._exceptions import AlpacaError, InvalidOperation, InvalidValue, LinkError, MountReplyError, ProtocolError
 from .clients import ClientActivity, ClientKey, current_client
 from .config.settings import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .motion import Motion, MotionKind
@@ -38,7 +38,8 @@ from .mount.timekeeping import ClockView
 from .sky import SIDEREAL_DEG_S, PierSide, flip_line_deg
 from .telescope.passes import Pass
 from .telescope.stored_settings import CHECKS as STORED_CHECKS
-from .zwo.link import LinkCounters, LinkStatus, TraceEntry
+from .zwo.link import LinkCounters, LinkStatus, Priority, TraceEntry
+from .zwo.survey import SurveyContext, SurveyReport, run_survey
 from .zwo.wire_values import MeridianSettings
 
 if TYPE_CHECKING:
@@ -170,6 +171,8 @@ class DeviceFacade:
         self._telescope = telescope
         self._server = server
         self._last_motion: Motion | None = None  # kept so the page can say how the last slew ended
+        self._survey_lock = threading.Lock()
+        self.last_survey: SurveyReport | None = None  # the page's download
 
     # -- identity and snapshots ------------------------------------------------------------------
 
@@ -473,6 +476,41 @@ class DeviceFacade:
         return None if progress is None else dataclasses.asdict(progress)
 
 
+    # -- the owner's survey (zwo/survey.py, docs/survey.md) --------------------------------------------
+
+    def _survey_refusal(self) -> str:
+        """Why the survey may not run now ('' when it may): it reads a mount at rest, so its readings agree."""
+        if not self.running or not self._telescope.connection.link_status().connected:
+            return "connect the mount first: the survey asks the connected mount"
+        view, state = self.motion(), self.state
+        current = self._telescope.motion.running()
+        if view.slewing or state.goto_running or (current is not None and not current.done.is_set()):
+            return "the mount is moving: stop it or let it arrive, then run the survey"
+        if state.moving_axes or view.guiding:
+            return "the mount is being moved (a manual move or a guide pulse): wait until it stops"
+        return ""
+
+    def survey(self) -> SurveyReport:
+        """Ask the mount the survey's read-only list through the server's own link, each question queued
+        behind client commands like a poll (so a STOP never waits for it); keep the report for download."""
+        refusal = self._survey_refusal()
+        if refusal:
+            raise InvalidOperation(f"survey not run: {refusal}")
+        if not self._survey_lock.acquire(blocking=False):
+            raise InvalidOperation("survey not run: a survey of this mount is already running")
+        try:
+            link = self._telescope.mount.link
+            emulator = self._server.emulators[self.index] if self.emulated else None
+            preset_name = str(getattr(getattr(getattr(emulator, "model", None), "firmware", None), "name", ""))
+            context = SurveyContext.here(__version__, self.url, preset_name)
+            report = run_survey(lambda request: link.exchange(request, Priority.POLL), context)
+            self.last_survey = report
+            log.info("setup page: survey of %s done (%d exchanges)", report.identity(), len(report.exchanges))
+            return report
+        finally:
+            self._survey_lock.release()
+
+
 def _pass_view(planned: Pass) -> dict[str, Any]:
     """A pass as the page lists it: its instants, how high, the part followed and its side plan."""
     return {"rise": planned.rise, "culmination": planned.culmination, "set": planned.set,
@@ -604,6 +642,7 @@ __all__ = [
     "ServerParts",
     "Settings",
     "StatusSource",
+    "SurveyReport",
     "TimeSetReport",
     "check_stored_setting",
     "current_client",

@@ -47,6 +47,7 @@ class Overrides:
     emulator_speed: float | None = None
     emulator_baud: int | None = None
     emulator_mode: str | None = None  # --emulator-mode eq|altaz
+    emulator_preset: str | None = None  # --emulator-preset NAME: the built-in emulator's firmware (zwo/firmware.py)
     stellarium_port: int | None = None  # --stellarium-port N: Stellarium's telescope server on N
     zwo_port: int | None = None  # --zwo-port N: serve the shared ZWO-protocol port on N for this run
 
@@ -54,16 +55,20 @@ class Overrides:
 class EmbeddedEmulator:
     """The built-in mount, served on a loopback TCP port so the whole driver stack is exercised."""
 
-    def __init__(self, settings: Settings, speed: float, baud: int, mode: str | None = None) -> None:
+    def __init__(self, settings: Settings, speed: float, baud: int, mode: str | None = None,
+                 preset_name: str | None = None) -> None:
         from .emulator import EmulatorServer, MountModel, ScaledClock, preset
+        from .emulator.imperfection import Imperfection
         from .zwo.wire_values import MountMode
 
         self.clock = ScaledClock(speed=speed)
         config = settings.emulator
         overrides = {"model": config.model, "version": config.firmware}
-        firmware = preset(config.preset, **{key: value for key, value in overrides.items() if value})
+        firmware = preset(preset_name or config.preset, **{key: value for key, value in overrides.items() if value})
         altaz = (mode or config.mode) == "altaz"
-        self.model = MountModel(self.clock, firmware=firmware, mode=MountMode.ALTAZ if altaz else MountMode.EQUATORIAL)
+        imperfection = Imperfection.of(config.pointing_errors, config.pointing_noise, config.pointing_seed)
+        self.model = MountModel(self.clock, firmware=firmware, mode=MountMode.ALTAZ if altaz else MountMode.EQUATORIAL,
+                                imperfection=imperfection)
         self.server = EmulatorServer(self.model, host="127.0.0.1", port=0, baud=baud)
         self.server.start()
         self.url = f"socket://127.0.0.1:{self.server.port}"
@@ -91,7 +96,7 @@ class AlpacaZwoServer:
         self.advertiser: Any = None
         self.stellarium: Any = None  # bridges.stellarium.StellariumBridge when [stellarium] is on
         self.zwo_port: Any = None  # bridges.zwo_port.ZwoPortBridge when [zwo_port] is on
-        #: The observatory interlock (README, *Observatory*): one gate for every telescope, the watch that
+        #: The observatory interlock (docs/guide/observatory.md): one gate for every telescope, the watch that
         #: polls the SafetyMonitor and roof into it, and the responder that parks or stops the mounts.
         self.interlock = Interlock()
         self.safety_watch: SafetyWatch | None = None
@@ -143,7 +148,8 @@ class AlpacaZwoServer:
             if not url:
                 speed = self.overrides.emulator_speed or settings.emulator.speed
                 baud = settings.emulator.baud if self.overrides.emulator_baud is None else self.overrides.emulator_baud
-                emulator = EmbeddedEmulator(settings, speed, baud, self.overrides.emulator_mode)
+                emulator = EmbeddedEmulator(settings, speed, baud, self.overrides.emulator_mode,
+                                            self.overrides.emulator_preset)
                 url, clock, monotonic, clock_rate = emulator.url, emulator.now, emulator.clock.seconds, speed
             self.emulators.append(emulator)
             link = Link(url, baud=device.baud, timeout=device.timeout, trace_size=settings.logging.trace_size)

@@ -27,6 +27,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -47,7 +48,9 @@ def wrap12(hours: float) -> float:
 class Bench:
     """The in-process server on its built-in emulator, and a client."""
 
-    def __init__(self, speed: float, baud: int, work: Path) -> None:
+    def __init__(self, speed: float, baud: int, work: Path, *, latitude: float = LATITUDE,
+                 **emulator_settings: Any) -> None:
+        """``emulator_settings``: further ``[emulator]`` settings (benchmarks/pointing.py: its pointing errors)."""
         from alpaca_zwo.config.settings import (
             EmulatorSettings,
             ServerSettings,
@@ -60,8 +63,8 @@ class Bench:
 
         settings = assign_unique_ids(Settings(
             server=ServerSettings(host="127.0.0.1", port=0, discovery_port=0),
-            site=SiteSettings(latitude=LATITUDE, longitude=-0.0005, elevation=46.0),
-            emulator=EmulatorSettings(speed=speed, baud=baud)))
+            site=SiteSettings(latitude=latitude, longitude=-0.0005, elevation=46.0),
+            emulator=EmulatorSettings(speed=speed, baud=baud, **emulator_settings)))
         self.server = AlpacaZwoServer(SettingsStore(settings, work / "config.toml"))
         self.server.start()
         emulator = self.server.emulators[0]
@@ -162,13 +165,17 @@ def main(argv: list[str] | None = None) -> int:
         finally:
             bench.close()
     meta.update(duration_s=round(time.time() - started, 1), loadavg_end=os.getloadavg())
-    results = {"meta": meta, "rows": rows}
+    save(stamp, {"meta": meta, "rows": rows}, render)
+    return 0
+
+
+def save(stamp: str, results: dict[str, Any], render: Callable[[dict[str, Any]], str]) -> None:
+    """Write ``results/<stamp>.json`` (every number) and ``.md`` (the table ``render`` makes), print the table."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / f"{stamp}.json").write_text(json.dumps(results, indent=1))
     table = render(results)
     (RESULTS / f"{stamp}.md").write_text(table)
     print(table)
-    return 0
 
 
 def _commit() -> str:

@@ -389,7 +389,10 @@
     const [slewText, slewCls] = yesNo(s.slewing, "busy");
     setText("slewing", s.connected ? slewText + (s.moving_axes.length ? " (manual move)" : "") : "\u2013", slewCls);
     setText("guiding", s.connected ? (s.guiding ? "pulse guiding" : "no") + ", rate " + (s.guide_rate !== null ? s.guide_rate.toFixed(1) + "\u00d7" : "?") : "\u2013", s.guiding ? "busy" : "");
-    const park = s.at_park ? "parked" : s.at_home ? "at home" : "no";
+    // The mount's own park (ZWO app, ASIAIR, hand controller, or kept from before a power cut): say so,
+    // since only Unpark here (or the ZWO app) lets it move again.
+    const park = s.parked_by_mount ? "parked (the mount parked itself; Unpark releases it)"
+      : s.at_park ? "parked" : s.at_home ? "at home" : "no";
     setText("park", s.connected ? park : "\u2013", s.at_park || s.at_home ? "yes" : "");
 
     const m = s.meridian;

@@ -21,8 +21,12 @@ def test_wheel_installs_into_a_fresh_venv_and_serves_the_setup_page(tmp_path: Pa
                     str(ROOT)], check=True, timeout=300)
     wheel = next(dist.glob("alpaca_zwo-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
-    for asset in ("index.html", "app.js", "style.css"):
+    for asset in ("index.html", "app.js", "style.css", "guide.css"):
         assert f"alpaca_zwo/static/{asset}" in names
+    # The user guide (docs/guide/, its notes and screenshots) ships too: /docs must work with no checkout.
+    for page in ("guide/index.md", "guide/first-night.md", "guide/configuration.md", "meridian.md",
+                 "screenshots/handset-progress-phone.png"):
+        assert f"alpaca_zwo/docs/{page}" in names, page
 
     # A fresh environment; dependencies come from this interpreter's site-packages (no network), put
     # behind the venv's own by a .pth line. (system_site_packages would give the *base* Python's, which
@@ -59,6 +63,10 @@ def test_wheel_installs_into_a_fresh_venv_and_serves_the_setup_page(tmp_path: Pa
         assert page.status_code == 200 and "<html" in page.text.lower()
         script = requests.get(f"http://127.0.0.1:{port}/setup/static/app.js", timeout=10)
         assert script.status_code == 200 and "javascript" in script.headers["Content-Type"]
+        guide = requests.get(f"http://127.0.0.1:{port}/docs/first-night", timeout=10)
+        assert guide.status_code == 200 and 'id="3-open-the-page-on-your-phone"' in guide.text
+        shot = requests.get(f"http://127.0.0.1:{port}/docs/screenshots/handset-progress-phone.png", timeout=10)
+        assert shot.status_code == 200 and shot.content.startswith(b"\x89PNG")
         location = subprocess.run([str(python), "-c", "import alpaca_zwo, sys; print(alpaca_zwo.__file__)"],
                                   capture_output=True, text=True, timeout=60, cwd=tmp_path).stdout
         assert str(env_dir) in location, "the venv imported the source tree instead of the installed wheel"

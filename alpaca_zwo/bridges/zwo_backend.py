@@ -281,15 +281,23 @@ class TelescopeBackend:
             raise Refusal(3, "a GOTO, home or park is already running")
         try:
             self.telescope.slew_to_coordinates_async(ra, dec)
-        except (Parked, SafetyRefusal) as exc:  # the mount's "not now" (parked, or the safety monitor says no)
-            raise Refusal(4, exc.message) from exc
-        except InvalidValue as exc:
-            raise Refusal(self._limit_code(ra, dec), exc.message) from exc
-        except InvalidOperation as exc:
-            raise Refusal(3, exc.message) from exc
+        except (Parked, SafetyRefusal, InvalidValue, InvalidOperation) as exc:
+            raise self._goto_refusal(exc, ra, dec) from exc
         except DriverError as exc:
             self._mount_refusal(exc)
         return 0
+
+    def _goto_refusal(self, exc: AlpacaError, ra: float, dec: float) -> Refusal:
+        """The code a GOTO's refusal goes back as: the mount's own ``eN#`` when the mount refused (its
+        words, _exceptions.MOUNT_REFUSALS, made it an ASCOM error too), else the server's own reason."""
+        code = _mount_code(exc)
+        if code is not None:
+            return Refusal(code, exc.message)
+        if isinstance(exc, (Parked, SafetyRefusal)):  # the mount's "not now" (parked, or the safety monitor says no)
+            return Refusal(4, exc.message)
+        if isinstance(exc, InvalidValue):
+            return Refusal(self._limit_code(ra, dec), exc.message)
+        return Refusal(3, exc.message)
 
     def compound_goto_sync(self) -> bool:
         return False  # real firmware answers :SMeq#/:SMMC# with e2# (field notes §6 row 14)
@@ -315,13 +323,22 @@ class TelescopeBackend:
         ra, dec = self.target()
         try:
             self.telescope.sync_to_coordinates(ra, dec)
-        except (Parked, InvalidValue) as exc:
-            raise Refusal(4 if isinstance(exc, Parked) else 1, exc.message) from exc
-        except InvalidOperation as exc:
-            raise Refusal(4 if self.telescope.slewing() else 11, exc.message) from exc
+        except (Parked, InvalidValue, InvalidOperation) as exc:
+            raise Refusal(self._sync_code(exc), exc.message) from exc
         except DriverError as exc:
             self._mount_refusal(exc)
         return 0
+
+    def _sync_code(self, exc: AlpacaError) -> int:
+        """The code a sync's refusal goes back as: the mount's own, else the server's reason's."""
+        code = _mount_code(exc)
+        if code is not None:
+            return code
+        if isinstance(exc, Parked):
+            return 4
+        if isinstance(exc, InvalidValue):
+            return 1
+        return 4 if self.telescope.slewing() else 11
 
     def clear_alignment(self) -> bool:
         self._refuse_guarded("NSC")
@@ -519,3 +536,9 @@ class TelescopeBackend:
             action(*args)
         except AlpacaError as exc:
             log.info("ZWO port: %s refused: %s", getattr(action, "__name__", "command"), exc.message)
+
+
+def _mount_code(exc: AlpacaError) -> int | None:
+    """The mount's own ``eN#`` behind an error (relayed to the program as it came), None for the server's own."""
+    cause = exc.__cause__
+    return cause.code if isinstance(cause, MountReplyError) else None

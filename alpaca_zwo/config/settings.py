@@ -268,18 +268,26 @@ def _setting(default: Any, check: Check) -> Any:
 class ServerSettings:
     """How the HTTP server, discovery and advertisement are exposed on the network."""
 
+    #: The address to listen on: "0.0.0.0" all IPv4 interfaces, "::" all IPv6, or one of this machine's addresses.
     host: str = _setting("0.0.0.0", _str(nonempty=True, pattern=r"\S+", hint="a host name or address"))
+    #: The HTTP port of the Alpaca API and the setup page (0 picks a free one).
     port: int = _setting(11111, _int(0, 65535))
     discovery_port: int = _setting(32227, _int(0, 65535))  # 0 = no UDP discovery responder
+    #: Advertise the setup page with mDNS (off by default because it multicasts on the network).
     mdns: bool = _setting(False, _bool)
+    #: Worker threads answering HTTP requests.
     threads: int = _setting(16, _int(1, 256))
+    #: Larger request bodies are refused (413) before they are read.
     max_body_bytes: int = _setting(65536, _int(1024, 16 * 1024 * 1024))
     # Open HTTP connections one remote address may hold; at most half of waitress's 1000 in all, so
     # one address can never fill the server. 0 = no limit.
     max_connections_per_address: int = _setting(64, _int(0, 500))
+    #: Set this and basic_auth_password to require HTTP basic auth on the API and the setup page.
     basic_auth_user: str = _setting("", _str(pattern=r"[^:]+", hint="a name without ':'"))
     basic_auth_password: str = _setting("", _str())  # both empty = no authentication
+    #: Pass CommandBlind/Bool/String through to the mount; bypasses every safety check.
     allow_raw_commands: bool = _setting(False, _bool)
+    #: A free text shown to clients as the device's location (e.g. "back garden").
     location: str = _setting("", _str())
     #: Host names the server answers to besides its own (hosts.py: IP addresses, localhost, the
     #: hostname, <hostname>.local, <hostname>.<domain>); ["*"] answers to any (no DNS-rebinding guard).
@@ -290,10 +298,13 @@ class ServerSettings:
 class DeviceSettings:
     """One mount served as one Alpaca Telescope device; its index is the Alpaca device number."""
 
+    #: The name clients show for this mount.
     name: str = _setting("ZWO AM5", _str(nonempty=True))
     url: str = _setting("", _str())  # pyserial URL or port; empty = the built-in emulator
     unique_id: str = _setting("", _str())  # generated once, then never changes (ASCOM UniqueID)
+    #: The serial line rate (the mount's USB port ignores it; 9600 is the mount's own).
     baud: int = _setting(9600, _int(1200, 921600))
+    #: Seconds to wait for the mount's reply before the exchange counts as lost.
     timeout: float = _setting(2.5, _float(0.1, 60.0))
 
 
@@ -305,8 +316,11 @@ class SiteSettings:
     (ConformU skips its pier-side tests within 10 degrees of the equator).
     """
 
+    #: Degrees, north positive; clients (N.I.N.A., KStars) and the setup page write it.
     latitude: float = _setting(51.4769, _float(-90.0, 90.0))
+    #: Degrees, EAST positive.
     longitude: float = _setting(-0.0005, _float(-180.0, 180.0))
+    #: Metres above sea level.
     elevation: float = _setting(46.0, _float(-300.0, 10000.0))
     #: gpsd's address ("localhost:2947") to take the site from a GPS receiver; empty = off (bridges/gpsd.py).
     gpsd: str = _setting("", _host_port)
@@ -327,8 +341,11 @@ class ParkSettings:
     axes when the site is edited.
     """
 
+    #: "home" parks at the mount's home position; "custom" at ha_hours/dec_deg.
     mode: Literal["home", "custom"] = _setting("home", _choice("home", "custom"))
+    #: The custom park position's hour angle (set with SetPark or the setup page).
     ha_hours: float = _setting(-6.0, _float(-12.0, 12.0))
+    #: The custom park position's declination.
     dec_deg: float = _setting(90.0, _float(-90.0, 90.0))
 
 
@@ -340,9 +357,13 @@ class LimitSettings:
     wrap-around at north; it is kept sorted by azimuth whatever order it is given in.
     """
 
+    #: GOTOs below this altitude are refused, and a manual move that reaches it is stopped.
     min_altitude_deg: float = _setting(0.0, _float(-10.0, 60.0))
+    #: The local horizon profile: [[azimuth, altitude], ...], linear between the points.
     horizon: tuple[tuple[float, float], ...] = _setting((), _horizon)
+    #: How far past the meridian the mount tracks (negative: stops before it); pushed to the mount.
     meridian_limit_deg: float = _setting(0.0, _float(-15.0, 15.0))
+    #: Track past the meridian up to meridian_limit_deg instead of stopping at it.
     meridian_track_past: bool = _setting(False, _bool)
 
     def __post_init__(self) -> None:
@@ -353,9 +374,11 @@ class LimitSettings:
 @dataclass(frozen=True, kw_only=True)
 class SafetySettings:
     """Guards against a client that vanishes mid-motion, what to do when the server stops, and the
-    observatory interlock: the Alpaca SafetyMonitor (and roof) the mount obeys (README, *Observatory*)."""
+    observatory interlock: the Alpaca SafetyMonitor (and roof) the mount obeys (docs/guide/observatory.md)."""
 
+    #: Stop a MoveAxis whose client stopped talking for this long.
     moveaxis_watchdog_s: float = _setting(15.0, _float(1.0, 600.0))
+    #: What the server does to the mount when it stops: "stop" every motion, or "park" it.
     on_shutdown: Literal["stop", "park"] = _setting("stop", _choice("stop", "park"))
     guide_max_ms: int = _setting(60000, _int(1, 60000))  # the longest PulseGuide accepted (ms)
     #: An Alpaca SafetyMonitor's URL; while it is not safe no motion starts. Empty: no monitor.
@@ -373,9 +396,30 @@ class SafetySettings:
 class LoggingSettings:
     """Log verbosity and destination, and how many mount exchanges the traffic trace keeps."""
 
+    #: The log's verbosity; DEBUG logs every request and every serial exchange.
     level: str = _setting("INFO", _choice("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL"))
     file: str = _setting("", _str())  # empty = standard error
+    #: Serial exchanges kept for the setup page's trace view.
     trace_size: int = _setting(2000, _int(0, 1_000_000))
+
+
+#: ``[emulator] pointing_errors``: NAME=ARCMINUTES pairs of TPOINT's terms (the emulator checks the values).
+_POINTING_TERM = r"(?:NPAE|IH|ID|CH|NP|MA|ME|TF|IA|IE|CA|AN|AW)=[-+]?(?:\d+\.?\d*|\.\d+)"
+_POINTING_TERMS = rf"{_POINTING_TERM}(?:,{_POINTING_TERM})*"
+_POINTING_MAX_ARCMIN = 600.0  # emulator/imperfection.py's MAX_TERM_ARCMIN (config may not import the emulator)
+
+
+def _pointing_terms(value: Any) -> str:
+    """``[emulator] pointing_errors``: the pattern, each term once, none beyond ±600′ (the emulator's own limits)."""
+    text: str = _str(pattern=_POINTING_TERMS, hint="TPOINT terms like 'IH=20,MA=-3.5'")(value)
+    pairs = [item.split("=") for item in text.split(",")] if text else []
+    names = [name for name, _ in pairs]
+    if len(set(names)) != len(names):
+        raise _Invalid(f"must name each term once, got {text!r}")
+    for name, number in pairs:
+        if abs(float(number)) > _POINTING_MAX_ARCMIN:
+            raise _Invalid(f"{name}={number} is beyond ±{_POINTING_MAX_ARCMIN:g} arcminutes")
+    return text
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -388,10 +432,18 @@ class EmulatorSettings:
     preset: str = _setting(DEFAULT_PRESET, _choice(*PRESETS))
     #: The version ``:GV#`` reports and the model; empty: the preset's own.
     firmware: str = _setting("", _str(pattern=r"\d+\.\d+\.\d+", hint="like '1.9.0'"))
+    #: The model :GVP# reports (AM3, AM5, AM5N, AM7); empty: the preset's.
     model: str = _setting("", _choice("", *MODELS))
     #: The mount mode stored in the emulated mount's flash at start: "eq" (German equatorial) or
     #: "altaz" (as if :AA# had been sent and the mount restarted), to run the whole server in alt-az.
     mode: str = _setting("eq", _choice("eq", "altaz"))
+    #: Mechanical errors of the emulated mount (emulator/imperfection.py): TPOINT terms in arcminutes, like
+    #: "IH=20,ID=-8,MA=12,ME=-9,CH=5,NP=2,TF=1.5" (alt-az: IA, IE, CA, NPAE, AN, AW, TF); "" = a perfect mount.
+    pointing_errors: str = _setting("", _pointing_terms)
+    #: Unmodelled scatter of every pointing, RMS arcseconds on the sky (repeatable: seeded by pointing_seed).
+    pointing_noise: float = _setting(0.0, _float(0.0, 3600.0))
+    #: The seed of pointing_noise's scatter: the same seed gives the same scatter, run after run.
+    pointing_seed: int = _setting(0, _int(0, 2**31 - 1))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -403,9 +455,12 @@ class StellariumSettings:
     apparent coordinates, sent unconverted). Stellarium connects over IPv4 only.
     """
 
+    #: Serve Stellarium's telescope protocol (also for one run: --stellarium-port).
     enabled: bool = _setting(False, _bool)
+    #: The address to listen on (Stellarium connects over IPv4).
     host: str = _setting("0.0.0.0", _str(nonempty=True, pattern=r"\S+", hint="a host name or IPv4 address"))
     port: int = _setting(10001, _int(0, 65535))  # 0 = any free port
+    #: Must match the telescope's coordinate system in Stellarium: "J2000" or "JNow".
     equinox: Literal["J2000", "JNow"] = _setting("J2000", _choice("J2000", "JNow"))
     #: Who may connect: "local" (loopback and this machine's own networks) and CIDRs (a VPN, a routed LAN).
     allowed_networks: tuple[str, ...] = _setting((LOCAL_NETWORKS,), _networks)
@@ -431,10 +486,15 @@ def _dangerous_codes(value: Any) -> tuple[str, ...]:
 class ZwoPortSettings:
     """The shared ZWO-protocol TCP port (like the mount's WiFi port 4030) for INDI and other ZWO/LX200 drivers."""
 
+    #: Serve the mount's own ZWO protocol on TCP for INDI (also for one run: --zwo-port).
     enabled: bool = _setting(False, _bool)
+    #: The address to listen on.
     host: str = _setting("0.0.0.0", _str(nonempty=True, pattern=r"\S+", hint="a host name or address"))
+    #: The TCP port; 4030 is the mount's own WiFi port number.
     port: int = _setting(4030, _int(0, 65535))
+    #: Programs connected at once.
     max_clients: int = _setting(16, _int(1, 256))
+    #: Guarded command codes allowed anyway (e.g. ["SRl", "STa"]), or ["all"].
     allow_dangerous: tuple[str, ...] = _setting((), _dangerous_codes)
     #: Who may connect: "local" (loopback and this machine's own networks) and CIDRs (a VPN, a routed LAN).
     allowed_networks: tuple[str, ...] = _setting((LOCAL_NETWORKS,), _networks)
@@ -449,6 +509,7 @@ class TimeSettings:
     connect). ``mount``: the mount's whenever it has one. A client's UTCDate always wins.
     """
 
+    #: Whose clock is right: "auto", "host" (always set the mount's clock) or "mount" (keep the mount's).
     source: Literal["auto", "host", "mount"] = _setting("auto", _choice("auto", "host", "mount"))
 
 

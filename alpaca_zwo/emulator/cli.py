@@ -20,21 +20,29 @@ from datetime import datetime, timezone
 from types import FrameType
 
 from ..zwo.firmware import (
+    ACK_WHILE_SLEWING,
     DEFAULT_PRESET,
     GH_REPLIES,
     GPS_REPLIES,
     GT_MAPPINGS,
     HOME_FLAGS,
+    HOME_READINGS,
+    HP_WHILE_TRACKING,
+    JOG_RATES,
     MODELS,
     NS_MOVES,
+    PARK_REFUSALS,
     PIER_LETTERS,
     PRESETS,
+    STATUS_WORDS,
+    UNKNOWN_QUERIES,
     FirmwareVariant,
     preset,
 )
 from ..zwo.wire_values import MountMode
 from .clock import ScaledClock
 from .control import ControlServer
+from .imperfection import ALTAZ_TERMS, EQUATORIAL_TERMS, MAX_NOISE_ARCSEC, Imperfection, parse_terms
 from .model import FACTORY_LATITUDE, FACTORY_LONGITUDE, MountModel
 from .server import EmulatorServer, pty_support_error
 
@@ -53,6 +61,22 @@ def _positive(text: str) -> float:
     value = float(text)
     if not value > 0.0:
         raise argparse.ArgumentTypeError("must be > 0")
+    return value
+
+
+def _terms(text: str) -> str:
+    """``--pointing-errors``: checked here so a typo is a usage error, not a perfect mount."""
+    try:
+        parse_terms(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from exc
+    return text
+
+
+def _noise(text: str) -> float:
+    value = float(text)
+    if not 0.0 <= value <= MAX_NOISE_ARCSEC:
+        raise argparse.ArgumentTypeError(f"must be between 0 and {MAX_NOISE_ARCSEC:g} arcseconds")
     return value
 
 
@@ -97,6 +121,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="mount mode in flash at start: eq, or altaz (as if :AA# had been sent and the mount restarted)",
     )
 
+    errors = parser.add_argument_group("mechanical errors (alpaca_zwo/emulator/README.md, docs/pointing-errors.md)")
+    errors.add_argument(
+        "--pointing-errors", type=_terms, default="", metavar="TERMS",
+        help="TPOINT terms in arcminutes, like IH=20,ID=-8,MA=12,ME=-9,CH=5,NP=2,TF=1.5 "
+             f"(equatorial: {', '.join(EQUATORIAL_TERMS)}; alt-az: {', '.join(ALTAZ_TERMS)})")
+    errors.add_argument("--pointing-noise", type=_noise, default=0.0, metavar="ARCSEC",
+                        help="unmodelled scatter of every pointing, RMS arcseconds on the sky (repeatable)")
+    errors.add_argument("--pointing-seed", type=int, default=0, metavar="N", help="the scatter's seed (default 0)")
+
     fw = parser.add_argument_group("firmware variant (a preset; the options below override its switches)")
     fw.add_argument("--preset", choices=tuple(PRESETS), default=DEFAULT_PRESET,
                     help="; ".join(f"{v.name}: {v.description}" for v in PRESETS.values()))
@@ -112,11 +145,22 @@ def build_parser() -> argparse.ArgumentParser:
                     help=":Gm# names the pointing state, the axes' state as in the north, or the hour angle's side")
     fw.add_argument("--ns-moves", choices=NS_MOVES,
                     help=":Mn#/:Mgn move toward the sky's north, or one way of the Dec axis")
+    for flag, choices, text in (
+            ("--park-refusal", PARK_REFUSALS, "a parked mount refuses motion as documented, or with e14# (1.8.8)"),
+            ("--hp-while-tracking", HP_WHILE_TRACKING, ":hP# parks while tracking, or is ignored (1.8.8)"),
+            ("--status-word", STATUS_WORDS, ":GU# as documented, or the 1.8.8 word (M, state digit)"),
+            ("--unknown-query", UNKNOWN_QUERIES, "an unknown :G..# is silent, or answers # (1.8.8)"),
+            ("--home-reading", HOME_READINGS, "home reads N and HA -6 h, or E and +6 h (1.8.8)"),
+            ("--jog-rates", JOG_RATES, ":R1#-:R7# as documented, or as measured on an AM5N"),
+            ("--ack-while-slewing", ACK_WHILE_SLEWING, ":Te#/:Td# during a slew answered at once, once it "
+                                                        "ends (1.8.8), or never")):
+        fw.add_argument(flag, choices=choices, help=text)
     for flag, text in (("--compound-goto-sync", ":SMeq/:SMMC work as documented (real firmware answers e2#)"),
                        ("--custom-tracking", ":STRnn# custom rate works (real: no reply)"),
                        ("--gmza-south-azimuth", ":GMZA# azimuth measured from south"),
                        ("--goto-flip-at-meridian", "a GOTO flips at the meridian, not past the track-past limit"),
-                       ("--site-in-flash", "a site set by :St/:Sg is kept across a power cycle")):
+                       ("--site-in-flash", "a site set by :St/:Sg is kept across a power cycle"),
+                       ("--park-at-home", ":hP# goes home, not to the factory park")):
         fw.add_argument(flag, action="store_const", const=True, help=text)
 
     parser.add_argument("--log-level", default="WARNING", help="DEBUG, INFO, WARNING (default) or ERROR")
@@ -127,7 +171,9 @@ def firmware_from_args(args: argparse.Namespace) -> FirmwareVariant:
     """The chosen preset with the switches given on the command line changed."""
     switches = {name: getattr(args, name) for name in (
         "model", "home_flag", "gt_mapping", "gps_reply", "gh_reply", "compound_goto_sync", "custom_tracking",
-        "gmza_south_azimuth", "goto_flip_at_meridian", "pier_letter", "ns_moves", "site_in_flash")}
+        "gmza_south_azimuth", "goto_flip_at_meridian", "pier_letter", "ns_moves", "site_in_flash", "park_refusal",
+        "hp_while_tracking", "status_word", "unknown_query", "home_reading", "jog_rates", "park_at_home",
+        "ack_while_slewing")}
     switches["version"] = args.firmware
     overrides = {name: value for name, value in switches.items() if value is not None}
     if args.hp_reply is not None:  # "none" is a value of its own: the :hP# that answers nothing
@@ -180,7 +226,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     clock = ScaledClock(speed=args.speed, start_utc=args.start_time)
     mode = MountMode.ALTAZ if args.mode == "altaz" else MountMode.EQUATORIAL
-    model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized, mode=mode)
+    imperfection = Imperfection.of(args.pointing_errors, args.pointing_noise, args.pointing_seed)
+    model = MountModel(clock, firmware, site=(args.latitude, args.longitude), initialized=args.initialized, mode=mode,
+                       imperfection=imperfection)
     server = EmulatorServer(model, host=args.host, port=args.port, baud=args.baud, pty=args.pty, pty_link=args.pty_link)
     try:
         server.start()

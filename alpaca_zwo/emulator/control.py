@@ -4,7 +4,8 @@ Lets a test in another process (or a person with ``nc``) inject faults and read 
 state without touching the mount protocol: each request line gets exactly one line of JSON.
 
     stall MS | drop N | garble N | close | outage SECONDS | reboot [SECONDS] | clear
-    stats | state | help
+    pointing-errors TERMS|none | pointing-noise ARCSEC [SEED]
+    stats | state | pointing | help
 """
 
 from __future__ import annotations
@@ -19,13 +20,15 @@ from collections.abc import Callable
 from typing import Any
 
 from .faults import Faults
+from .model import MountModel
 from .server import EmulatorServer
 
 __all__ = ["ControlServer", "ask", "execute"]
 
 _log = logging.getLogger(__name__)
 
-HELP = "stall MS | drop N | garble N | close | outage SECONDS | reboot [SECONDS] | clear | stats | state"
+HELP = ("stall MS | drop N | garble N | close | outage SECONDS | reboot [SECONDS] | clear | "
+        "pointing-errors TERMS|none | pointing-noise ARCSEC [SEED] | stats | state | pointing")
 
 
 #: Fault commands: name -> (what it does with the arguments), each answering ``{"ok": true, "command": name}``.
@@ -38,10 +41,20 @@ _FAULTS: dict[str, Callable[[Faults, list[str]], object]] = {
     "reboot": lambda f, a: f.reboot(float(a[0]) if a else 2.0),
     "clear": lambda f, a: f.clear(),
 }
+
+
+#: Changes to the mount's mechanics, answering like a fault command: ``pointing-errors IH=20,ID=-8`` (or
+#: ``none``: new TPOINT terms, the scatter kept), ``pointing-noise ARCSEC [SEED]`` (a new scatter, the terms kept).
+_MECHANICS: dict[str, Callable[[MountModel, list[str]], None]] = {
+    "pointing-errors": lambda m, a: m.set_imperfection(m.imperfection.with_terms("".join(a))),
+    "pointing-noise": lambda m, a: m.set_imperfection(
+        m.imperfection.with_noise(float(a[0]), int(a[1]) if len(a) > 1 else m.imperfection.noise.seed)),
+}
 #: Read-outs: name -> (the answer's key, how to read it).
 _READOUTS: dict[str, tuple[str, Callable[[EmulatorServer], object]]] = {
     "stats": ("stats", lambda s: s.stats()),
     "state": ("state", lambda s: s.model.snapshot()),
+    "pointing": ("pointing", lambda s: s.model.imperfection.describe()),
     "help": ("help", lambda s: HELP),
 }
 
@@ -56,10 +69,14 @@ def execute(server: EmulatorServer, line: str) -> dict[str, Any]:
         key, read = _READOUTS[name]
         return {"ok": True, key: read(server)}
     fault = _FAULTS.get(name)
-    if fault is None:
+    mechanics = _MECHANICS.get(name)
+    if fault is None and mechanics is None:
         return {"ok": False, "error": f"unknown command {name!r}", "help": HELP}
     try:
-        fault(server.faults, args)
+        if fault is not None:
+            fault(server.faults, args)
+        elif mechanics is not None:
+            mechanics(server.model, args)
     except (IndexError, ValueError) as exc:
         return {"ok": False, "error": f"bad arguments for {name}: {exc}", "help": HELP}
     return {"ok": True, "command": name}

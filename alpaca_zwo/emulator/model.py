@@ -50,13 +50,14 @@ from typing import Any
 
 from .. import sky
 from ..sky import SIDEREAL_DEG_S
-from ..zwo.firmware import FirmwareVariant
+from ..zwo.firmware import MEASURED_JOG_SPEEDS, FirmwareVariant
 from ..zwo.wire_values import SLEW_SPEEDS, MountMode, MountStatus
 from .altaz import AltAzRules
 from .clock import Clock
 from .clocksite import ClockAndSite
 from .faults import FaultEvent, Faults
 from .flash import FlashSettings
+from .imperfection import Imperfection
 from .physics import Mechanics
 from .state import (
     ACCEL_DEG_S2,
@@ -108,10 +109,12 @@ class MountModel:
         faults: Faults | None = None,
         accel: float = ACCEL_DEG_S2,
         mode: MountMode = MountMode.EQUATORIAL,
+        imperfection: Imperfection | None = None,
     ) -> None:
         """``site`` is the (latitude, east longitude) stored in the mount, returned after every
         power-up; ``initialized`` starts as if a client had already set date, time and site;
-        ``mode`` is the mount mode in flash (as if ``:AA#``/``:AP#`` and a restart had happened)."""
+        ``mode`` is the mount mode in flash (as if ``:AA#``/``:AP#`` and a restart had happened);
+        ``imperfection`` its mechanical errors (``imperfection.py``; default: a perfect mount)."""
         self._lock = threading.RLock()
         self._clock = clock
         self.firmware = firmware if firmware is not None else FirmwareVariant()
@@ -124,7 +127,8 @@ class MountModel:
         start = clock.seconds()
         self.flash = FlashSettings(persist=persist, firmware=self.firmware, lock=self._lock, advance=self._advance)
         self.clock_site = ClockAndSite(flash=self.flash, lock=self._lock, advance=self._advance, t=start)
-        self.mechanics = Mechanics(clock=clock, accel=accel, flash=self.flash, site=self.clock_site, t=start)
+        self.mechanics = Mechanics(clock=clock, accel=accel, flash=self.flash, site=self.clock_site, t=start,
+                                   imperfection=imperfection if imperfection is not None else Imperfection())
         self.altaz_rules = AltAzRules(mechanics=self.mechanics, site=self.clock_site, flash=self.flash)
         self.faults.add_listener(self._on_fault)
         if initialized:
@@ -165,10 +169,21 @@ class MountModel:
     # ---------------------------------------------------------------- position, target
 
     def position(self) -> tuple[float, float]:
-        """(RA hours, Dec degrees) the mount reports, alignment offsets included."""
+        """(RA hours, Dec degrees) the mount reports, alignment offsets included; at home, on firmware
+        that counts home as the through-the-pole side, the hour angle of that side (+6 h in the north)."""
+        mech = self.mechanics
         with self._lock:
-            self.mechanics.advance()
-            return self.mechanics.reported()
+            mech.advance()
+            ra, dec = mech.reported()
+            if self._home_through_pole():
+                ra = sky.wrap_hours_24(ra + 12.0)
+            return ra, dec
+
+    def _home_through_pole(self) -> bool:
+        """At the home position on firmware that reads it as the through-the-pole side (``home_reading``,
+        AM5N 1.8.8: ``E`` and hour angle +6 h). Callers hold the lock and have advanced the mechanics."""
+        mech = self.mechanics
+        return self.firmware.home_reading == "through_pole" and not mech.altaz() and mech.at_home_position()
 
     def horizontal(self) -> tuple[float, float]:
         """(altitude, azimuth from north) of the reported position, at the mount's site and LST."""
@@ -177,6 +192,31 @@ class MountModel:
             mech.advance()
             ra, dec = mech.reported()
             return sky.equatorial_to_horizontal(sky.hour_angle(site.lst(mech.t), ra), dec, site.latitude_deg)
+
+    @property
+    def imperfection(self) -> Imperfection:
+        """The mount's mechanical errors (``imperfection.py``): where the tube truly points, relative to its axes."""
+        return self.mechanics.imperfection
+
+    def set_imperfection(self, imperfection: Imperfection) -> None:
+        """Change the mount's mechanical errors (the control port's ``pointing-errors``/``pointing-noise``)."""
+        with self._lock:
+            self.mechanics.imperfection = imperfection
+
+    def sky(self) -> tuple[float, float, float, float]:
+        """Where the tube truly points: (RA hours, Dec degrees, altitude, azimuth), in the frame of
+        ``position()`` (the mount's LST and site) but without its sync offset, which is only the mount's
+        belief. A perfect mount points where its axes say (``raw_ha_dec``)."""
+        with self._lock:
+            self.mechanics.advance()
+            return self._sky()
+
+    def _sky(self) -> tuple[float, float, float, float]:
+        """``sky()`` for callers holding the lock, the physics advanced."""
+        mech, site = self.mechanics, self.clock_site
+        ha, dec = mech.true_ha_dec()
+        alt, az = sky.equatorial_to_horizontal(ha, dec, site.latitude_deg)
+        return sky.ra_from_hour_angle(site.lst(mech.t), ha), dec, alt, az
 
     def axes(self) -> tuple[float, float]:
         """Mechanical (primary, secondary) axis angles in degrees, for tests and inspection."""
@@ -193,6 +233,8 @@ class MountModel:
         mech = self.mechanics
         with self._lock:
             mech.advance()
+            if self._home_through_pole():
+                return "W" if mech.hemisphere().side(True) is sky.PierSide.WEST else "E"
             if mech.at_home_position():
                 return "N"
             rule = self.firmware.pier_letter
@@ -246,7 +288,8 @@ class MountModel:
                 mech.start_slew(self.altaz_rules.goto(raw_ha, raw_dec))
                 return 0
             hemisphere = mech.hemisphere()
-            side = sky.goto_pier_side(raw_ha, mech.side(), self._goto_limit_deg())
+            current = hemisphere.side(True) if self._home_through_pole() else mech.side()  # the side :Gm# names
+            side = sky.goto_pier_side(raw_ha, current, self._goto_limit_deg())
             p, s = hemisphere.axes(raw_ha, raw_dec, side)
             mech.start_slew(Slew("goto", mech.t, p, hemisphere.primary_rate(SIDEREAL_DEG_S), s,
                                  hemisphere.outer(side)))
@@ -277,7 +320,10 @@ class MountModel:
             mech.advance()
             if self.flash.mode_in_effect is not MountMode.EQUATORIAL:
                 return False
-            p, s = self.flash.persist.custom_park or (PARK_P, PARK_S)
+            if mech.tracking and self.firmware.hp_while_tracking == "ignored":
+                return False  # AM5N 1.8.8: never moves, never parks (docs/firmware-evidence.md)
+            factory = (HOME_P, HOME_S) if self.firmware.park_at_home else (PARK_P, PARK_S)
+            p, s = self.flash.persist.custom_park or factory
             self.flash.persist.parked = True
             mech.start_slew(Slew("park", mech.t, p, 0.0, s, abs(s) > 90.0))
             return True
@@ -289,6 +335,11 @@ class MountModel:
             was = self.flash.persist.parked
             self.flash.persist.parked = False
             return was
+
+    def parked(self) -> bool:
+        """Whether the park latch is set (parking or parked): it survives power cycles, it is in flash."""
+        with self._lock:
+            return self.flash.persist.parked
 
     def park_status(self) -> int:
         """0 not parked, 1 parking, 2 parked."""
@@ -349,8 +400,9 @@ class MountModel:
 
     def select_speed(self, index: int) -> None:
         """``:Rn#`` (and ``:RG/:RC/:RM/:RS``): fixed speed for both axes, latched by ``:M?#``."""
+        speeds = MEASURED_JOG_SPEEDS if self.firmware.jog_rates == "measured" else SLEW_SPEEDS
         with self._lock:
-            self.mechanics.speed = SLEW_SPEEDS[index]
+            self.mechanics.speed = speeds[index]
             self.mechanics.axis_speed = [None, None]
 
     def set_variable_speed(self, multiple: float, axis: int | None = None) -> None:
@@ -544,19 +596,33 @@ class MountModel:
     # ---------------------------------------------------------------- status and inspection
 
     def status(self) -> MountStatus:
-        """The ``:GU#`` flags, firmware variant applied."""
+        """The ``:GU#`` flags, firmware variant applied (``status_word``: the documents' letters, or
+        the 1.8.8 word, where parked or parking shows ``n`` alone, ``M`` is always there, ``P``
+        never, and the last digit says the state)."""
         mech = self.mechanics
         with self._lock:
             mech.advance()
             idle_home = mech.at_home_position() and not mech.moving()
             flag = self.firmware.home_flag
             at_home = idle_home and (flag == "always_at_home" or (flag == "after_home" and mech.home_flag))
-            return MountStatus(
-                tracking=mech.tracking,
-                slewing=mech.slew is not None or mech.braking(),
-                at_home=at_home,
-                mode=self.flash.mode_in_effect,
-            )
+            slewing = mech.slew is not None or mech.braking()
+            if self.firmware.status_word != "1.8.8":
+                return MountStatus(tracking=mech.tracking, slewing=slewing, at_home=at_home,
+                                   mode=self.flash.mode_in_effect)
+            parked = self.flash.persist.parked
+            return MountStatus(tracking=mech.tracking, slewing=slewing or parked, at_home=at_home,
+                               mode=self.flash.mode_in_effect, other_flags="M",
+                               digits="00000000" + self._state_digit(parked))
+
+    def _state_digit(self, parked: bool) -> str:
+        """The last digit of a 1.8.8 ``:GU#`` (eq-satrack am5/mock_mount.py L597-600, "real hardware
+        confirmed live"): 5 parked, 3 a manual move running, 1 tracking, 0 otherwise. Callers hold the lock."""
+        mech = self.mechanics
+        if parked:
+            return "5"
+        if any(move is not None for move in mech.moves):
+            return "3"
+        return "1" if mech.tracking else "0"
 
     def slewing(self) -> bool:
         """In the GOTO state: a slew, or a stopped slew still braking (what ``:GU#`` shows)."""
@@ -574,6 +640,7 @@ class MountModel:
             raw_ha, raw_dec = mech.raw_ha_dec()
             lst = site.lst(mech.t)
             alt, az = sky.equatorial_to_horizontal(sky.hour_angle(lst, ra), dec, site.latitude_deg)
+            sky_ra, sky_dec, sky_alt, sky_az = self._sky()
             persist = self.flash.persist
             return {
                 "emulated_seconds": mech.t,
@@ -592,6 +659,11 @@ class MountModel:
                 "az_deg": az,
                 "raw_ha_h": raw_ha,
                 "raw_dec_deg": raw_dec,
+                "sky_ra_h": sky_ra,  # where the tube truly points (imperfection.py), the frame of ra_h
+                "sky_dec_deg": sky_dec,
+                "sky_alt_deg": sky_alt,
+                "sky_az_deg": sky_az,
+                "pointing_errors": self.imperfection.describe(),
                 "primary_deg": mech.pos[RA],
                 "secondary_deg": mech.pos[DEC],
                 "velocity_deg_s": list(mech.vel),

@@ -16,6 +16,7 @@ from .altaz import SETTLED_S, axes_to_ha_dec_altaz, follow_sky
 from .clock import Clock
 from .clocksite import ClockAndSite
 from .flash import FlashSettings
+from .imperfection import Imperfection
 from .state import (
     AT_HOME_DEG,
     DEC,
@@ -43,6 +44,7 @@ class Mechanics:
     ``flash``, the latitude and sidereal time from ``site``; it never calls back into the model.
     """
 
+    imperfection: Imperfection  # the mechanical errors between the axes and the sky (not volatile)
     t: float  # emulated seconds the physics has been advanced to
     pos: list[float]  # (primary, secondary) axis angles, degrees
     vel: list[float]  # their velocities, deg/s
@@ -66,8 +68,11 @@ class Mechanics:
     homed: bool  # a home slew completed since power-up
     home_flag: bool  # 'H' latch of the after_home variant
 
-    def __init__(self, *, clock: Clock, accel: float, flash: FlashSettings, site: ClockAndSite, t: float) -> None:
-        """``accel``: each axis's acceleration, deg/s²; ``t``: the emulated seconds it powers up at."""
+    def __init__(self, *, clock: Clock, accel: float, flash: FlashSettings, site: ClockAndSite, t: float,
+                 imperfection: Imperfection) -> None:
+        """``accel``: each axis's acceleration, deg/s²; ``t``: the emulated seconds it powers up at;
+        ``imperfection``: where the tube truly points relative to the axes (kept across power-ups)."""
+        self.imperfection = imperfection
         self._clock = clock
         self._accel = accel
         self._flash = flash
@@ -320,6 +325,20 @@ class Mechanics:
         if self.altaz():
             return axes_to_ha_dec_altaz(self.pos[RA], self.pos[DEC], self._site.latitude_deg)
         return self.hemisphere().ha_dec(self.pos[RA], self.pos[DEC])
+
+    def true_ha_dec(self) -> tuple[float, float]:
+        """(HA hours, Dec) the tube truly points at: ``raw_ha_dec`` moved by the mechanical errors between the
+        axes and the sky (``imperfection.py``); a perfect mount's exactly."""
+        ha, dec = self.raw_ha_dec()
+        p, s = self.pos
+        if self.imperfection.perfect:
+            return ha, dec
+        latitude = self._site.latitude_deg
+        if self.altaz():
+            alt, az = self.imperfection.altaz_sky(p, s)
+            return sky.horizontal_to_equatorial(alt, az, latitude)
+        # TPOINT's mechanical Dec is past ±90° exactly where raw_ha_dec folds it (state.axes_to_ha_dec).
+        return self.imperfection.equatorial_sky(p, s, ha, dec, latitude, abs(s) > 90.0)
 
     def raw_altitude(self) -> float:
         ha, dec = self.raw_ha_dec()

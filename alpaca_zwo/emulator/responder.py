@@ -15,8 +15,8 @@ from datetime import date, datetime, time
 
 from ..zwo import dispatch, wire_values
 from ..zwo.dispatch import Verbatim
-from ..zwo.firmware import has_feature
-from ..zwo.protocol import CommandMatch, TrackingState
+from ..zwo.firmware import ACKS_HELD_WHILE_SLEWING, PARKED_REFUSED, has_feature
+from ..zwo.protocol import BY_CODE, CommandMatch, TrackingState, match_command
 from ..zwo.wire_values import Direction, MeridianSettings, MountMode, MountStatus, TrackRate
 from .model import MountModel
 
@@ -26,6 +26,34 @@ _log = logging.getLogger(__name__)
 
 #: What firmware answers a command it does not know: nothing (field notes §2.9).
 _UNKNOWN = Verbatim(None)
+#: What a parked 1.8.8 mount answers a motion command (docs/firmware-evidence.md).
+_PARKED = Verbatim("e14#")
+
+
+def _parked_refuses(body: str) -> bool:
+    """Whether ``body`` is one of the commands a parked 1.8.8 mount refuses (``Mg…``: every pulse)."""
+    return body in PARKED_REFUSED or body.startswith("Mg")
+
+
+#: 1.8.8 queries with no reply on the USB link: forwarded to the second controller (S2 doc L617).
+_FORWARDED = ("GSN", "GVE", "GPT")
+#: 1.8.8 aliases (S2 doc L633: "three consecutive paired reads were identical").
+_ALIASES = {"GRr": "GR", "GDr": "GD"}
+#: The table's argument-less queries that no longer code extends: 1.8.8 answers them whatever text
+#: follows (``:GCAL#`` is ``:GC#``, S2 doc L619), while a query other codes extend (``:GA``, ``:GV``)
+#: dispatches on the next letter and answers an unknown one with a lone ``#`` (``:GADC#``, ``:GVN#``).
+_LEAF_QUERIES = tuple(sorted(
+    (code for code, command in BY_CODE.items()
+     if code.startswith("G") and command.args is None
+     and not any(other != code and other.startswith(code) for other in BY_CODE)),
+    key=len, reverse=True,
+))
+#: The pole's azimuth as the documents' formatter writes it, and as 1.8.8 wrote it at home (S1).
+_NORTH, _NORTH_360 = "000*00:00", "360*00:00"
+
+
+def _leaf_of(body: str) -> str | None:
+    return next((code for code in _LEAF_QUERIES if body.startswith(code)), None)
 
 
 class ModelBackend:
@@ -46,6 +74,37 @@ class ModelBackend:
         if code == "STR" and not firmware.custom_tracking:
             return _UNKNOWN
         return None
+
+    def firmware_reply(self, body: str) -> Verbatim | None:
+        """What this build answers before the command table is consulted, known command or not:
+        a parked 1.8.8 mount refuses the whole motion class with ``e14#``, even the commands that
+        are otherwise silent or unknown to the table (:hU#, :I#, :PO#…; docs/firmware-evidence.md)."""
+        firmware = self.model.firmware
+        if firmware.park_refusal == "e14" and _parked_refuses(body) and self.model.parked():
+            return _PARKED
+        if firmware.home_reading == "through_pole" and body in ("GZ", "GMZA"):
+            return self._azimuth_360(body)
+        if firmware.unknown_query == "1.8.8" and body.startswith("G") and match_command(body) is None:
+            return self._unknown_query(body)
+        return None
+
+    def _azimuth_360(self, body: str) -> Verbatim:
+        """1.8.8 writes the pole's azimuth ``360*00:00`` (read at home, S1), the documents ``000``."""
+        reply = dispatch.answer(self, body)
+        if reply is not None and reply.startswith(_NORTH):
+            reply = _NORTH_360 + reply[len(_NORTH):]
+        return Verbatim(reply)
+
+    def _unknown_query(self, body: str) -> Verbatim:
+        """A ``:G…#`` the table does not know, answered as 1.8.8 did (``unknown_query``)."""
+        if body.startswith("GX") or body in _FORWARDED:
+            return _UNKNOWN
+        if body == "GAST":  # three #-terminated records in one reply (S2 doc L632)
+            return Verbatim("".join(dispatch.answer(self, code) or "" for code in ("GMTI", "GMEQ", "GU")))
+        if body == "GVD":
+            return Verbatim(self.model.firmware.build_date + "#")
+        known = _ALIASES.get(body) or _leaf_of(body)
+        return Verbatim(dispatch.answer(self, known) if known is not None else "#")
 
     # ---------------------------------------------------------------- date, time, site
 
@@ -277,9 +336,21 @@ class ModelResponder:
         self.model = model
         self.backend = ModelBackend(model)
 
+    def held_ack(self, body: str) -> str | None:
+        """Asked as a request arrives, before :meth:`handle`: "late" or "never" when this build holds back
+        the acknowledgement of ``body`` because a slew runs (``FirmwareVariant.ack_while_slewing``), else
+        None. The line, which owns the timing of replies, carries it out."""
+        mode = self.model.firmware.ack_while_slewing
+        if mode == "prompt" or body not in ACKS_HELD_WHILE_SLEWING or not self.model.slewing():
+            return None
+        return mode
+
     def handle(self, body: str) -> str | None:
         """The reply text for ``body``, or None when the mount sends nothing back."""
         try:
+            own = self.backend.firmware_reply(body)
+            if own is not None:
+                return own.reply
             return dispatch.answer(self.backend, body)
         except Exception:  # a bug here must not take the line down; the mount just says nothing
             _log.exception("responder failed on :%s#", body)

@@ -169,6 +169,7 @@ class _Line:
                 self._process(body)
 
     def _process(self, body: str) -> None:
+        held = self.server.responder.held_ack(body)  # judged as the request arrives, before it acts
         reply = self.server.responder.handle(body)
         if _log.isEnabledFor(logging.DEBUG):
             _log.debug("line %s :%s# -> %r", self.id, body, reply)
@@ -179,8 +180,23 @@ class _Line:
         if reply is None:
             return
         out = self.server.faults.apply_to_reply(reply.encode("latin-1"))
-        if out:
-            self._replies.put(out)
+        if not out or held == "never":
+            return
+        if held == "late":
+            self._send_after_slew(out)
+            return
+        self._replies.put(out)
+
+    def _send_after_slew(self, reply: bytes) -> None:
+        """A busy mount's late acknowledgement: queued once the slew has ended, while the replies to
+        later requests (position reads) go out meanwhile (``FirmwareVariant.ack_while_slewing``)."""
+        def release() -> None:
+            while self.server.model.slewing():
+                if self.closed.wait(0.005):
+                    return
+            self._replies.put(reply)
+
+        threading.Thread(target=release, name=f"emulator-{self.kind}{self.id}-late-ack", daemon=True).start()
 
     def _write_loop(self) -> None:
         faults = self.server.faults

@@ -70,6 +70,7 @@ from .._exceptions import (
     MountReplyError,
     ProtocolError,
     driver_error,
+    mount_errors,
 )
 from ..clients import ClientKey, ClientRegistry
 from ..config.settings import Settings
@@ -140,7 +141,7 @@ class MotionSupervisor:
         self.motion: Motion | None = None
         self.moves: dict[int, ManualMove] = {}
         self.settle_s = 0.0
-        self.parked = False
+        self._own_park = False  # a park of ours ended at its position (the mount's own park: Mount.state)
         self.offsets = RateOffsets()
         self.rest = RestDetector(mount=mount)
         self.limits = Limits(mount=mount, settings=settings, lst=lst)
@@ -176,6 +177,16 @@ class MotionSupervisor:
         """Our motions until the mount is at rest, manual moves, and any GOTO the mount reports."""
         state = state or self.mount.state
         return self.motion is not None or bool(self.moves) or bool(state.moving_axes) or state.goto_running
+
+    @property
+    def parked(self) -> bool:
+        """AtPark: a park of ours arrived, or the mount holds its own (firmware) park, whoever set it."""
+        return self._own_park or self.mount.state.parked_by_mount
+
+    @property
+    def parked_by_mount(self) -> bool:
+        """The mount holds its own park (``:hP#`` from the ZWO app, ASIAIR, a hand controller...)."""
+        return self.mount.state.parked_by_mount
 
     def pulse_guiding(self) -> bool:
         return bool(self.guiding.pulses)
@@ -333,7 +344,7 @@ class MotionSupervisor:
         self._withdraw(motion)
         if isinstance(exc, MotionCancelled):
             return InvalidOperation(f"{what} cancelled: a stop arrived while it was starting")
-        return driver_error(what, exc)
+        return driver_error(what, exc, moving=self.slewing())  # a "busy" refusal says moving only if so
 
     def goto(self, ra: float, dec: float, kind: MotionKind = MotionKind.GOTO,
              restore_tracking: bool | None = None) -> Motion:
@@ -509,10 +520,15 @@ class MotionSupervisor:
             raise self.interlock.refusal("Tracking=true") from exc
 
     def unpark(self) -> None:
-        """Unpark: the mount may move again, so the gate must allow it."""
+        """Unpark: the mount may move again, so the gate must allow it. A park the mount holds itself (or is
+        still making) is released with ``:Spu#`` and answered only once the mount confirms it (Mount.release_park)."""
+        self.interlock.require("Unpark")
+        if self.mount.state.park_latched:
+            with mount_errors("Unpark"):
+                self.mount.release_park()
         with self._lock:
             self.interlock.require("Unpark")
-            self.parked = False
+            self._own_park = False
 
     # -- the supervisor thread -----------------------------------------------------------------
 
@@ -615,7 +631,7 @@ class MotionSupervisor:
             return
         if state.status_time is None or state.status_time <= motion.started or state.status is None:
             return  # no reading taken after the command yet
-        if state.status.slewing:
+        if state.goto_running:
             motion.saw_busy = True
             return
         if not motion.saw_busy and state.status_time - motion.started < STATUS_LAG_S:
@@ -660,7 +676,7 @@ class MotionSupervisor:
                 motion.done.set()
                 return
             if motion.kind is MotionKind.PARK and not motion.error:
-                self.parked = True
+                self._own_park = True
                 log.info("parked")
             self.motion = None
         motion.done.set()

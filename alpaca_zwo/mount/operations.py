@@ -24,7 +24,7 @@ from datetime import datetime, timedelta, timezone
 from typing import Any
 
 from .. import sky
-from .._exceptions import AlpacaZwoError, LinkError, MountReplyError, ProtocolError
+from .._exceptions import AlpacaZwoError, LinkError, LinkTimeout, MountReplyError, ProtocolError
 from ..sky import SIDEREAL_DAY_S, SIDEREAL_DEG_S, SIDEREAL_HOURS_PER_S, PierSide
 from ..zwo import protocol, wire_values
 from ..zwo.link import Link, Priority
@@ -33,7 +33,7 @@ from ..zwo.wire_values import Direction, MeridianSettings, MountMode, MountStatu
 from .estimator import PositionEstimator, SyncRemainder, wire_position
 from .pier import DecSense, PierSides
 from .settings_cache import DEFAULT_REFRESH_S, SettingsCache
-from .state import MountInfo, MountSettings, MountState
+from .state import PARKED, MountInfo, MountSettings, MountState
 from .timekeeping import TimeKeeper
 
 log = logging.getLogger(__name__)
@@ -131,6 +131,8 @@ class Mount:
         self._pier_lock = threading.Lock()
         self._pier = PierSides()
         self._dec_sense = DecSense()
+        #: The link generation on which ``:Gps#`` answered an empty ``#`` (not asked again on it).
+        self._park_unreadable = -1
 
     # -- state -------------------------------------------------------------------------------
 
@@ -661,9 +663,26 @@ class Mount:
 
     def set_tracking(self, on: bool, guard: Guard | None = None, not_before: float | None = None) -> None:
         """Switch tracking; ``not_before`` (a time.monotonic() instant) times the command exactly."""
-        self.link.execute(protocol.query("Te" if on else "Td"), Priority.COMMAND, guard=guard, not_before=not_before)
+        req = protocol.query("Te" if on else "Td")
+        try:
+            self.link.execute(req, Priority.COMMAND, guard=guard, not_before=not_before)
+        except LinkTimeout as exc:
+            self._confirm_tracking(req, on, exc)
         self._changed(tracking=TrackingState(on))
         self._rate_changed()
+
+    def _confirm_tracking(self, req: protocol.Request, on: bool, exc: LinkTimeout) -> None:
+        """A busy mount answers ``:Te#``/``:Td#`` late or never (a real 1.8.8 mount left ``:Te#``
+        unanswered for 1.5 s during a GOTO: real-transcripts-1.8.8.md §2 item 8): what it reports
+        decides, read back at once. The link keeps the late byte from being read as a later reply."""
+        tracking = self._exec(protocol.query("GAT"))
+        if tracking.on != on:
+            state = "on" if tracking.on else "off"
+            why = (f"no acknowledgement in time ({exc}), and the mount still reports tracking {state}; it may be "
+                   "busy with a slew: try again once it ends")
+            raise MountReplyError(req.text, "", None, why) from exc
+        log.info("%s: no acknowledgement in time, but the mount reports tracking %s: done", req.text,
+                 "on" if on else "off")
 
     def set_tracking_rate(self, rate: TrackRate) -> None:
         self._exec(protocol.set_tracking_rate(rate))
@@ -787,20 +806,57 @@ class Mount:
         status = self._exec(protocol.query("GU"), Priority.POLL)
         tracking = self._exec(protocol.query("GAT"), Priority.POLL)
         pier = self._exec(protocol.query("Gm"), Priority.POLL)
+        park = self._read_park(status)
         with self._publish_lock:
             if self._epoch != epoch:
                 self.refresh()
                 return self._state
-            published = self._publish_poll(ra, dec, (asked, now), status, tracking, pier)
+            published = self._publish_poll(ra, dec, (asked, now), status, tracking, pier, park)
         if self._turn_round:
             self._turn_dec_move_round()
         return published
 
+    def _read_park(self, status: MountStatus) -> int | None:
+        """``:Gps#`` when the mount may hold its own park: the status word shows it, or the mount is not
+        tracking (a parked mount never tracks, so a tracking one costs no extra byte). Another program
+        may park it at any time (the ZWO app, ASIAIR, the hand controller): the default firmware shows
+        that only here. Firmware older than the park, or that answers an empty ``#`` or nothing, is not
+        asked again on this link."""
+        info = self._state.info
+        if (self._park_unreadable == self.link.generation or (info is not None and not info.has_park)
+                or (status.tracking and not status.parked)):
+            return None
+        park: int | None = None
+        try:
+            park = self._exec(protocol.query("Gps"), Priority.POLL)
+        except LinkTimeout:
+            log.info(":Gps# unanswered: the mount's own park is read from its status word only")
+        if park is None:
+            self._park_unreadable = self.link.generation
+        return park
+
+    def release_park(self) -> None:
+        """Release the mount's own park with ``:Spu#`` and confirm it by reading the park state back.
+
+        ``:Spu#`` answers a bare ``1`` when it released a park and ``0`` when there was none (S1's
+        ASIMount trace, real-transcripts-1.8.8.md §1): a ``0`` is no failure by itself, the read-back
+        decides. Raises MountReplyError when the mount still says it is parked."""
+        try:
+            self._exec(protocol.query("Spu"))
+        except MountReplyError as exc:
+            if exc.code is not None:
+                raise  # an eN# refusal, not the "was not parked" byte
+        park = self._try(protocol.query("Gps"))
+        status = self._exec(protocol.query("GU"))
+        state = self._changed(park=park, status=status, status_time=self.monotonic())
+        if state.parked_by_mount:
+            raise MountReplyError(":Spu#", "", None, "the mount still reports itself parked after :Spu#")
+
     def _publish_poll(self, ra: float, dec: float, window: tuple[float, float], status: MountStatus,
-                      tracking: TrackingState, pier: str) -> MountState:
+                      tracking: TrackingState, pier: str, park: int | None) -> MountState:
         asked, now = window
         state = self._state
-        moving = bool(state.moving_axes) or status.slewing
+        moving = bool(state.moving_axes) or (status.slewing and park != PARKED)
         with self._estimator_lock:
             if moving:
                 self._estimator.invalidate()
@@ -818,7 +874,7 @@ class Mount:
         best = self._remainder.to_sky(*best)
         side = self._read_side(ra, dec, now, pier, moving, status)
         return self._publish(ra=best[0], dec=best[1], raw_ra=ra, raw_dec=dec, position_time=now, status=status,
-                             status_time=now, tracking=tracking, pier=pier, side=side, poll_error="")
+                             status_time=now, tracking=tracking, pier=pier, side=side, poll_error="", park=park)
 
     def _read_side(self, ra: float, dec: float, now: float, letter: str, moving: bool,
                    status: MountStatus) -> PierSide:

@@ -15,6 +15,9 @@ from ..zwo.link import LinkStatus
 from ..zwo.protocol import TrackingState
 from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, TrackRate
 
+#: ``:Gps#``'s "parking" and "parked" (0 not parked, 1 parking, 2 parked, 3 park error).
+PARKING, PARKED = 1, 2
+
 
 @dataclass(frozen=True)
 class MountInfo:
@@ -26,6 +29,11 @@ class MountInfo:
     @property
     def has_meridian_settings(self) -> bool:
         return has_feature(self.firmware, "meridian_settings")
+
+    @property
+    def has_park(self) -> bool:
+        """The firmware's own park (``:hP#``, ``:Gps#``, ``:Spu#``) exists: from 1.1.9 (INDI)."""
+        return has_feature(self.firmware, "park")
 
 
 @dataclass(frozen=True)
@@ -64,6 +72,9 @@ class MountState:
     info: MountInfo | None = None
     initialised: bool = False  # time and site pushed since the link last (re)connected
     poll_error: str = ""
+    #: The firmware's own park as ``:Gps#`` last said: 0 none, 1 parking, 2 parked, 3 park error; None
+    #: when not read (a tracking mount is never parked) or the firmware answers an empty ``#``.
+    park: int | None = None
 
     def age(self, now: float | None = None) -> float | None:
         """Seconds since the position was read (None: never)."""
@@ -72,8 +83,25 @@ class MountState:
         return (time.monotonic() if now is None else now) - self.position_time
 
     @property
+    def parked_by_mount(self) -> bool:
+        """The mount holds its own (firmware) park: ``:hP#`` from the ZWO app, ASIAIR, the hand
+        controller or another program, kept across power cycles, released only by ``:Spu#``. Real
+        1.8.8 firmware shows it as ``:Gps#`` ``2#`` and a status word ending in 5, never a ``P``
+        (real-transcripts-1.8.8.md §1 "Park, home, unpark", §2 items 4 and 6)."""
+        if self.park is not None:
+            return self.park == PARKED
+        return bool(self.status and self.status.parked)
+
+    @property
+    def park_latched(self) -> bool:
+        """The mount's own park is latched, parked or still on its way (``:Gps#`` 1): what Unpark releases."""
+        return self.parked_by_mount or self.park == PARKING
+
+    @property
     def goto_running(self) -> bool:
-        return bool(self.status and self.status.slewing)
+        """A GOTO, home or park slew runs. A parked mount's status word lacks ``N`` too (``nGM000000005#``):
+        that is the park, not a slew, once ``:Gps#`` says parked."""
+        return bool(self.status and self.status.slewing) and self.park != PARKED
 
     @property
     def altaz(self) -> bool:

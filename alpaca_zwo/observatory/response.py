@@ -1,6 +1,6 @@
 """SafetyResponder: what the server does to the mounts when the safety monitor turns unsafe (``on_unsafe``).
 
-Rules (README, *Observatory*), per unsafe *episode* (from the verdict turning unsafe to it turning
+Rules (docs/guide/observatory.md), per unsafe *episode* (from the verdict turning unsafe to it turning
 anything else) and per telescope:
 
 - ``park``: stop everything (a running GOTO, MoveAxis, pulses, timed moves; rate offsets zeroed), then

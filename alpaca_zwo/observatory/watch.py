@@ -1,6 +1,6 @@
 """SafetyWatch: polls the SafetyMonitor and the roof and writes the verdict into the interlock gate.
 
-Rules (README, *Observatory*):
+Rules (docs/guide/observatory.md):
 
 - Every ``poll_s`` the monitor's ``IsSafe`` and the roof's ``ShutterStatus`` are read (one after the
   other, each with a timeout well under ``unreachable_s``). Before the first read of a device the

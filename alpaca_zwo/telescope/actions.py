@@ -2,8 +2,8 @@
 
 The mount stores settings no ASCOM member reaches (buzzer, heavy-duty mode, meridian behaviour,
 altitude limits, EQ/alt-az mode) and the server has its own horizon limits; each is one
-:class:`ZwoAction` in :data:`ACTIONS`, a table rather than an if-chain, so the README, SupportedActions
-and the dispatcher cannot drift apart.
+:class:`ZwoAction` in :data:`ACTIONS`, a table rather than an if-chain, so the guide
+(docs/guide/actions.md), SupportedActions and the dispatcher cannot drift apart.
 
 Conventions, the same for every action:
 

@@ -34,6 +34,7 @@ from .._exceptions import (
     InvalidOperation,
     InvalidValue,
     MemberNotImplemented,
+    MountReplyError,
     Parked,
     mount_errors,
 )
@@ -65,6 +66,10 @@ LINGER_S = 60.0
 LINK_GRACE_S = 30.0
 #: How far the axes turn in a pier flip (SideOfPier write), for when it lands.
 FLIP_TRAVEL_DEG = 180.0
+#: The home pose read from the position (``_home_pose``): Dec this close to the pole (degrees; the mount
+#: prints whole arcseconds) and the hour angle this close to ±6 h (hours: a minute of time, 0.25°).
+HOME_DEC_TOLERANCE_DEG = 1.0 / 60.0
+HOME_HA_TOLERANCE_H = 1.0 / 60.0
 GUIDE_DIRECTIONS = {0: Direction.NORTH, 1: Direction.SOUTH, 2: Direction.EAST, 3: Direction.WEST}
 
 
@@ -169,6 +174,10 @@ class Telescope:
         self.connection.require_connected()
 
     def _require_unparked(self, what: str) -> None:
+        if self.motion.parked_by_mount:
+            raise Parked(f"{what} is not allowed while the mount is parked: it parked itself (its own park, "
+                         "set by the ZWO app, ASIAIR, a hand controller or another program, kept across power "
+                         "cycles); Unpark releases it")
         if self.motion.parked:
             raise Parked(f"{what} is not allowed while the telescope is parked; unpark it first")
 
@@ -232,7 +241,19 @@ class Telescope:
         state = self._state()
         if self.motion.slewing(state):
             return False
-        return state.pier == "N" or bool(state.status and state.status.at_home)
+        return state.pier == "N" or bool(state.status and state.status.at_home) or self._home_pose(state)
+
+    def _home_pose(self, state: MountState) -> bool:
+        """At rest at the pole with the counterweight down (hour angle ±6 h): the home position, whatever
+        the firmware calls it. The documents' firmware reads ``N`` and −6 h there (north), real 1.8.8 mounts
+        ``E`` and +6 h, with no ``H`` (docs/firmware-evidence.md); both are this one pose."""
+        if self._altaz_mode() or state.moving_axes or (state.tracking is not None and state.tracking.on):
+            return False
+        ra, dec = self._position()
+        if 90.0 - abs(dec) > HOME_DEC_TOLERANCE_DEG:
+            return False
+        ha = self.mount.mechanical_hour_angle(ra)
+        return abs(abs(sky.wrap_hours_12(ha)) - 6.0) < HOME_HA_TOLERANCE_H
 
     def slewing(self) -> bool:
         self.connection.require_connected()
@@ -357,8 +378,8 @@ class Telescope:
         self._check_goto(ra, dec)
         try:
             return self.flips.goto(ra, dec, self._keep_east_setting(ra))
-        except DriverError as exc:
-            if exc.number == ERR_MOUNT_REFUSED:  # e5#/e6#: its limits may have changed over WiFi since read
+        except AlpacaError as exc:
+            if isinstance(exc.__cause__, MountReplyError):  # e5#/e6#: its limits may have changed over WiFi
                 self.mount.settings_cache.mark_stale()
             raise
 

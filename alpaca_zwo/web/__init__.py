@@ -2,9 +2,9 @@
 
 One module per job: ``files`` (the page and its static files), ``status`` (the status feed),
 ``settings`` (the settings API, server settings included), ``commands`` (the controls), ``trace``
-(the serial trace), ``logview`` (the log view), ``observatory`` (the safety interlock's state and
-finding its devices), ``satellites`` (kept TLE sets, their passes, following one: issue 41),
-``http`` (security and JSON plumbing) and
+(the serial trace), ``logview`` (the log view), ``guide`` (the user guide at ``/docs``), ``observatory``
+(the safety interlock's state and finding its devices), ``satellites`` (kept TLE sets, their passes,
+following one: issue 41), ``http`` (security and JSON plumbing) and
 ``context`` (what the routes share). The package talks to the rest of the server only through
 :mod:`alpaca_zwo.facade`; ``goto`` and ``skyview`` read the object catalogue (:mod:`alpaca_zwo.catalogue`,
 pure data and search) on their first request.
@@ -22,6 +22,7 @@ from .commands import ActionResource
 from .context import WebContext
 from .files import DeviceSetupPage, RootRedirect, SetupPage, StaticFiles, static_dir
 from .goto import GotoResource, GotoVerdict, ObjectDetails, ObjectSearch, SyncResource
+from .guide import guide_routes
 from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
 from .observatory import SafetyDiscoverResource, SafetyResource
@@ -29,6 +30,7 @@ from .satellites import FollowResource, SatellitesResource
 from .settings import ServerResource, SettingsResource
 from .skyview import SkyResource
 from .status import StatusResource
+from .survey import SurveyResource, SurveyText
 from .trace import TraceResource, TraceText
 
 log = logging.getLogger(__name__)
@@ -65,6 +67,9 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/telescope/{number}/satellites", SatellitesResource(web)),
         ("/setup/api/telescope/{number}/satellites/follow", FollowResource(web)),
         ("/setup/api/telescope/{number}/trace.txt", TraceText(web)),
+        ("/setup/api/telescope/{number}/survey", SurveyResource(web)),
+        ("/setup/api/telescope/{number}/survey.txt", SurveyText(web)),
+        *guide_routes(),
     ]
 
 

@@ -29,6 +29,7 @@ from .._exceptions import (
     MountReplyError,
     ProtocolError,
     SettingsNotSaved,
+    refusal_error,
 )
 from ..facade import ClientKey
 
@@ -98,7 +99,8 @@ def api_errors(resp: falcon.Response) -> Iterator[None]:
     except ConfigError as exc:
         send(resp, {"error": str(exc)}, 400)
     except MountReplyError as exc:
-        send(resp, {"error": f"the mount refused: {exc.meaning or exc.reply}"}, 409)
+        refusal = refusal_error("the mount refused", exc)  # the one table's words (_exceptions.MOUNT_REFUSALS)
+        send(resp, {"error": plain_words(refusal.message), "number": refusal.number}, 409)
     except (LinkError, ProtocolError) as exc:
         send(resp, {"error": link_trouble(exc)}, 409)
     except ModuleNotFoundError as exc:  # an optional package this install lacks (32-bit ARM: PyEphem)

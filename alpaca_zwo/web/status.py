@@ -82,7 +82,7 @@ def status_view(facade: ServerFacade, device: DeviceFacade, page_key: ClientKey)
         "clients": clients_view(facade, connected_keys),
         "sky": sky_view(settings, device, meridian["limit_deg"]),
         "bridges": facade.bridges(),
-        "safety": facade.safety(),  # the observatory interlock (README, *Observatory*)
+        "safety": facade.safety(),  # the observatory interlock (docs/guide/observatory.md)
     }
 
 
@@ -118,6 +118,7 @@ def _motion_view(state: MountState, motion: MotionView, tracking: bool) -> dict[
         "guiding": motion.guiding,
         "guide_rate": finite(state.guide_rate, 3),
         "at_park": motion.at_park,
+        "parked_by_mount": state.parked_by_mount,  # its own park (ZWO app, ASIAIR...): the page says so
         "at_home": motion.at_home,
     }
 

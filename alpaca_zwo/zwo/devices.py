@@ -38,7 +38,7 @@ ZWO_VID = 0x03C3
 ZWO_PID = 0x4001
 PROBE_TIMEOUT_S = 0.6  # a mount answers :GVP# in ~20 ms at 9600 baud; anything slower is not one
 STABLE_NAMES = ("/dev/zwo-mount",)  # deploy/99-zwo-mount.rules
-_MODEL_REPLY = re.compile(rb"^(AM\d+N?)#$")
+_MODEL_REPLY = re.compile(rb"^(AM\d{1,2}[A-Z]{0,2})#$")  # AM3, AM5, AM5N, AM7, and suffixes to come
 _MODEM_NAME = re.compile(r"(ttyACM\d+|usbmodem|^COM\d+$)", re.IGNORECASE)
 
 PERMISSION_ADVICE = (

@@ -13,6 +13,16 @@ next command, drains the input and proves it is back in step with a probe whose 
 knows, repeated until nothing else arrives behind that reply. Only then does a new command go
 out, so a stale reply can never be read as the answer to a later request.
 
+An acknowledgement may also come late, or never: a real 1.8.8 mount busy with a GOTO left ``:Te#``
+unanswered for the whole 1.5 s its driver waited (real-transcripts-1.8.8.md §2 item 8). When a
+one-byte reply times out with nothing at all received, the link remembers that it is *owed* (for
+``LATE_ACK_WINDOW_S``). A lone ``0``/``1``/``eN#`` found later -- drained before a command, ahead of
+the resync probe's reply, or ahead of a query's reply that only parses without it -- is recorded as
+that command's late reply and discarded, never read as the answer to the later command; the caller
+of the timed-out command confirms it by reading the mount's state back. A timeout marks the line
+suspect, never lost. What remains unknowable: a stray byte ahead of a query's reply that parses both
+with and without it; the mount's two-digit fields make that impossible for the poll's own queries.
+
 Stops have an urgent lane: :meth:`Link.send_urgent` writes a reply-less command (``:Q#``,
 ``:Qe#`` …) at once, between the bytes of whatever exchange is in flight, taking only the write
 lock (held for the duration of one ``write``). A motion command may carry a *guard* that is
@@ -44,6 +54,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import logging
+import re
 import socket
 import threading
 import time
@@ -54,7 +65,7 @@ from typing import Any
 
 import serial
 
-from .._exceptions import AmbiguousReply, LinkError, LinkTimeout, MotionCancelled, ProtocolError
+from .._exceptions import AmbiguousReply, LinkError, LinkTimeout, MotionCancelled, MountReplyError, ProtocolError
 from . import protocol
 
 log = logging.getLogger(__name__)
@@ -168,6 +179,9 @@ class Link:
     DRAIN_LIMIT_S = 1.0
     READ_SLICE_S = 0.05
     PROBE_TIMEOUT_S = 1.0
+    #: How long an acknowledgement that timed out may still arrive and be recognised as late: longer
+    #: than the longest GOTO (a busy mount answers when its slew ends).
+    LATE_ACK_WINDOW_S = 600.0
     #: After a one-byte reply, this much silence (plus 3 byte times) proves nothing else came with it;
     #: a GOTO (rare, and the one whose false success would move the mount) waits longer.
     TRAILING_QUIET_S = 0.003
@@ -202,6 +216,9 @@ class Link:
         self._status = LinkStatus(LinkState.CLOSED, url, time.time())
         self._suspect = False
         self._probe_reply: str | None = None  # learnt on the first successful probe
+        #: The one-byte reply still owed by a command that timed out with nothing received: (its
+        #: request text, when it was sent); see the module docstring.
+        self._owed: tuple[str, float] | None = None
 
         self._trace: collections.deque[TraceEntry] = collections.deque(maxlen=trace_size)
         self.counters = LinkCounters()
@@ -381,8 +398,12 @@ class Link:
         except LinkTimeout as exc:
             self.counters.timeouts += 1
             self._suspect = True
+            if isinstance(exc, _NothingArrived) and req.kind in (protocol.ReplyKind.CHAR, protocol.ReplyKind.GOTO):
+                self._owed = (req.text, started)  # a busy mount may still send it (module docstring)
             self._record(req.text, None, started, f"timeout: {exc}")
             raise LinkTimeout(f"no complete reply to {req.text} within {self.timeout:.1f} s") from exc
+        if req.kind is protocol.ReplyKind.TEXT and self._owed is not None:
+            reply = self._without_late_ack(req, reply)
         quiet = self.GOTO_QUIET_S if req.kind is protocol.ReplyKind.GOTO else self.TRAILING_QUIET_S
         if req.kind in (protocol.ReplyKind.CHAR, protocol.ReplyKind.GOTO) and self._trailing_bytes(quiet):
             # A one-byte answer with more right behind it ('0' then 'e5#'): which byte was the
@@ -415,6 +436,32 @@ class Link:
                 return False
             time.sleep(min(0.0005, remaining))
 
+    def _settle_owed(self, stale: bytes) -> bool:
+        """Whether ``stale`` (bytes found where no reply was expected) is the acknowledgement a timed-out
+        command still owed; if so it is recorded as that command's late reply, and nothing is owed."""
+        owed = self._owed
+        if owed is None:
+            return False
+        request, since = owed
+        if time.monotonic() - since > self.LATE_ACK_WINDOW_S:
+            self._owed = None  # too late to tell from noise: the shape checks treat it as such
+            return False
+        text = stale.decode("latin-1")
+        if not _ACK_RE.fullmatch(text):
+            return False
+        self._owed = None
+        log.info("late acknowledgement %r of %s, %.1f s after it was sent", text, request, time.monotonic() - since)
+        self._record(request, text, since, "late acknowledgement: arrived after its timeout, not taken as a reply")
+        return True
+
+    def _without_late_ack(self, req: protocol.Request, reply: str) -> str:
+        """A query's reply with the owed acknowledgement in front of it (the mount sent it just before
+        answering): the reply without it, when only that parses. Otherwise the reply as it came."""
+        if reply[:1] in ("0", "1") and not _parses(req, reply) and _parses(req, reply[1:]) \
+                and self._settle_owed(reply[:1].encode("latin-1")):
+            return reply[1:]
+        return reply
+
     def _read_reply(self, kind: protocol.ReplyKind, deadline: float) -> str:
         if kind is protocol.ReplyKind.NONE:
             return ""
@@ -422,6 +469,8 @@ class Link:
         data = bytearray()
         while not protocol.reply_complete(kind, bytes(data)):
             if time.monotonic() >= deadline:
+                if not data:
+                    raise _NothingArrived("no reply at all")
                 raise LinkTimeout(f"partial reply {bytes(data)!r}")
             # One byte at a time for bare-character replies so nothing behind them is consumed.
             want = 1 if kind is not protocol.ReplyKind.TEXT and not data else max(1, port.in_waiting)
@@ -444,20 +493,23 @@ class Link:
     # -- resynchronisation -------------------------------------------------------------------
 
     def _drain(self, quiet_s: float) -> int:
-        """Read and discard until the line has been silent for ``quiet_s``; bounded in time."""
+        """Read and discard until the line has been silent for ``quiet_s``; bounded in time. Returns how
+        many bytes went; an owed acknowledgement among them is recorded as late (:meth:`_settle_owed`)."""
         port = self._port
-        drained = 0
+        drained = bytearray()
         give_up = time.monotonic() + self.DRAIN_LIMIT_S
         quiet_until = time.monotonic() + quiet_s
         while time.monotonic() < quiet_until:
             chunk = port.read(max(1, port.in_waiting))
             if chunk:
-                drained += len(chunk)
+                drained += chunk
                 quiet_until = time.monotonic() + quiet_s
                 if time.monotonic() > give_up:
                     break
-        self.counters.drained_bytes += drained
-        return drained
+        self.counters.drained_bytes += len(drained)
+        if drained:
+            self._settle_owed(bytes(drained))
+        return len(drained)
 
     def _resynchronise(self) -> None:
         """Prove the stream is in step again, or raise LinkTimeout without sending the command.
@@ -503,9 +555,13 @@ class Link:
                     if protocol.MODEL_NAME_RE.fullmatch(text[:-1]):
                         self._probe_reply = text  # the first probe teaches us the model name
                         return text
-                elif text == self._probe_reply:
-                    return text
-                data.clear()  # a stale reply; keep reading for ours
+                elif text.endswith(self._probe_reply):
+                    # Ours, behind bytes with no '#' of their own (a late acknowledgement, junk): the
+                    # drain after the probe still proves nothing else follows.
+                    self._settle_owed(bytes(data[: len(data) - len(self._probe_reply)]))
+                    return self._probe_reply
+                self._settle_owed(bytes(data))  # a stale reply (a late 'eN#' is recorded as such)
+                data.clear()  # keep reading for ours
         raise LinkTimeout("probe reply did not arrive")
 
     # -- connection management ---------------------------------------------------------------
@@ -587,6 +643,25 @@ class Link:
         )
 
 
+
+
+class _NothingArrived(LinkTimeout):
+    """Not one byte of the reply came in time (a busy mount's late or missing acknowledgement)."""
+
+
+#: A lone acknowledgement as a late one arrives: a bare ``0``/``1`` or an ``eN#`` refusal.
+_ACK_RE = re.compile(r"[01]|e\d{1,2}#")
+
+
+def _parses(req: protocol.Request, reply: str) -> bool:
+    """Whether ``reply`` reads as an answer to ``req`` (a refusal counts: it is an answer)."""
+    try:
+        req.parse(reply)
+    except MountReplyError:
+        return True
+    except (ProtocolError, ValueError, IndexError):
+        return False
+    return True
 
 
 def _plausible(req: protocol.Request, reply: str) -> bool:

@@ -98,8 +98,9 @@ ERROR_CODES: dict[int, str] = {
     8: "tracking passed the meridian limit and stopped",
     9: "sync point is on the other side of the meridian",
     10: "alt-az mode: altitude inverted",
-    11: "sync is not allowed near the pole",
+    11: "sync is not allowed at the home position (near the pole)",
     12: "sync point is too far from the current position",
+    14: "the mount is parked (its own park; :Spu# releases it)",  # every motion while parked (S1, 1.8.8)
 }
 
 #: Failure bytes of ``:Sp01#`` (store custom park position), field notes §4.2.

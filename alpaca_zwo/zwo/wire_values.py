@@ -224,7 +224,11 @@ class MountStatus:
     dec_stall: bool = False  # 's'
     st4_ra: bool = False  # 'T'
     st4_dec: bool = False  # 't'
-    parked: bool = False  # 'P' (dropped from firmware >= v1.8 documents)
+    #: The firmware's own park shown: 'P' (dropped from firmware >= v1.8 documents) or, as real 1.8.8
+    #: mounts show it, the digit 5 ending the word (``nGM000000005#`` parked, ``nGM040000895#`` right
+    #: after ``:hP#``: real-transcripts-1.8.8.md §1 "Status word", S1/S2). Parked *or parking*: only
+    #: ``:Gps#`` tells the two apart.
+    parked: bool = False
     other_flags: str = ""  # letters nobody has decoded (e.g. 'M')
     digits: str = "000000000"
 
@@ -277,7 +281,7 @@ def parse_status(text: str) -> MountStatus:
         dec_stall="s" in letters,
         st4_ra="T" in letters,
         st4_dec="t" in letters,
-        parked="P" in letters,
+        parked="P" in letters or match.group(2).endswith("5"),
         other_flags="".join(ch for ch in match.group(1) if ch not in _KNOWN_FLAGS),
         digits=match.group(2),
     )

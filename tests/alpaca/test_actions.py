@@ -35,7 +35,7 @@ from alpaca_zwo.zwo.wire_values import MeridianSettings, MountMode
 from tests.conftest import ServerFactory, make_settings
 from tests.support.wait import wait_until
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+ACTIONS_PAGE = Path(__file__).resolve().parents[2] / "docs" / "guide" / "actions.md"
 #: Every command an action may send (reads and writes): none may reach the mount for a bad parameter.
 ACTION_CODES = ("SBu", "GBu", "SRl", "GRl", "STa", "GTa", "SLE", "SLD", "GLC", "SLH", "GLH", "SLL", "GLL",
                 "AA", "AP", "Ggr", "GH")
@@ -120,11 +120,10 @@ def test_supported_actions_lists_exactly_the_implemented_ones(rig: Rig) -> None:
         assert rig.action(name)
 
 
-def test_readme_documents_every_action() -> None:
-    """The README's Actions section has a heading and an alpyca example for each action, and no others."""
-    text = README.read_text(encoding="utf-8")
-    section = text.split("## ZWO Actions", 1)[1].split("\n## ", 1)[0]
-    documented = re.findall(r"^### `(zwo:\w+)`", section, flags=re.MULTILINE)
+def test_the_guide_documents_every_action() -> None:
+    """The guide's Actions page has a heading and an alpyca example for each action, and no others."""
+    section = ACTIONS_PAGE.read_text(encoding="utf-8")
+    documented = re.findall(r"^## `(zwo:\w+)`", section, flags=re.MULTILINE)
     assert documented == [action.name for action in ACTIONS]
     for name in documented:
         assert f'T.Action("{name}"' in section, f"no alpyca example for {name}"

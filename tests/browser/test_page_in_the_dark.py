@@ -409,7 +409,8 @@ def test_axe_finds_no_serious_or_critical_violation(server_factory: ServerFactor
                                                     night: bool) -> None:
     """With the diagnostics open, an object's card and a list of matches showing, then with a star tapped on the
     chart (a phone's sheet) and a GoTo's motion line; in night mode only
-    color-contrast may remain (dim red on black on purpose: README, "Night mode")."""
+    color-contrast may remain (dim red on black on purpose: docs/guide/hand-controller.md, "Night mode and
+    brightness")."""
     page = Page(server_factory, browser, size, night=night)
     page.js("for (const d of document.querySelectorAll('details')) d.open = true")
     page.find("Vega")

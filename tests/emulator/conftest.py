@@ -42,7 +42,7 @@ def connect(emu: EmulatorServer) -> Iterator[Callable[[], MountClient]]:
     clients: list[MountClient] = []
 
     def make() -> MountClient:
-        client = MountClient(emu.port)
+        client = MountClient(emu.port, compile_time=emu.model.firmware.compile_time)
         clients.append(client)
         return client
 

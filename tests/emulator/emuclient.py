@@ -29,10 +29,12 @@ SILENCE_S = 0.25
 class MountClient:
     """A test client speaking the mount protocol over a real TCP socket."""
 
-    def __init__(self, port: int, host: str = "127.0.0.1") -> None:
+    def __init__(self, port: int, host: str = "127.0.0.1", compile_time: str | None = None) -> None:
+        """``compile_time`` is the firmware's :GVT# text when it is not the default's (the sentinel's reply)."""
         self.sock = socket.create_connection((host, port), timeout=TIMEOUT_S)
         self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._pending = b""
+        self._sentinel_reply = SENTINEL_REPLY if compile_time is None else f"{compile_time}#".encode()
 
     def close(self) -> None:
         self.sock.close()
@@ -86,8 +88,8 @@ class MountClient:
             data = self.read_until(lambda d: b"&" in d and d.endswith(b"#"))
             return data[: data.rindex(b"#", 0, len(data) - 1) + 1].decode("latin-1")
         self.write(SENTINEL)
-        data = self.read_until(lambda d: d.endswith(SENTINEL_REPLY))
-        return data[: -len(SENTINEL_REPLY)].decode("latin-1")
+        data = self.read_until(lambda d: d.endswith(self._sentinel_reply))
+        return data[: -len(self._sentinel_reply)].decode("latin-1")
 
     def send(self, request: str) -> None:
         """A no-reply command: assert it answers nothing, and that it has been acted on."""

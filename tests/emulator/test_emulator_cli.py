@@ -108,6 +108,21 @@ def test_cli_preset_sets_model_version_and_quirks(start_emulator: type[EmulatorP
     assert emulator.terminate() == 0
 
 
+def test_cli_1_8_8_switches_override_a_preset(start_emulator: type[EmulatorProcess]) -> None:
+    """The 1.8.8 preset with one switch turned back: the others keep answering as recorded."""
+    emulator = start_emulator("--baud", "0", "--preset", "am5n-1.8.8", "--home-reading", "documents",
+                              "--unknown-query", "silent")
+    client = MountClient(emulator.port(), compile_time="14:01:29")
+    try:
+        assert client.ask(":GVP#") == "AM5N#"
+        assert client.ask(":Gm#") == "N#"  # --home-reading documents
+        assert client.exact(":GW#") == ""  # --unknown-query silent
+        assert client.ask(":GU#") == "nNGM000000000#"  # the preset's status word is kept
+    finally:
+        client.close()
+    assert emulator.terminate() == 0
+
+
 def test_cli_pty_option_prints_a_usable_device(start_emulator: type[EmulatorProcess]) -> None:
     serial = pytest.importorskip("serial")
     emulator = start_emulator("--pty", "--baud", "0")
@@ -130,3 +145,18 @@ def test_cli_rejects_bad_arguments() -> None:
     )
     assert result.returncode == 2
     assert "--home-flag" in result.stderr
+
+
+def test_cli_pointing_errors_reach_the_mount_and_its_truth(start_emulator: type[EmulatorProcess]) -> None:
+    """``--pointing-errors``/``--pointing-noise`` (docs/pointing-errors.md): the readings stay the axes', the
+    control port's state says where the tube truly points (IH=30 alone: 30′ west of home's hour angle)."""
+    emulator = start_emulator("--control-port", "0", "--baud", "0", "--initialized", "--latitude", "52.5",
+                              "--pointing-errors", "IH=30", "--pointing-noise", "0", "--pointing-seed", "4")
+    assert emulator.control("pointing")["pointing"] == {"terms_arcmin": {"IH": 30.0}, "noise_arcsec": 0.0, "seed": 4}
+    state = emulator.control("state")["state"]
+    assert state["dec_deg"] == 90.0  # at home: the axes' own pole
+    assert abs(state["sky_dec_deg"] - 90.0) < 1e-9  # IH turns about the pole: still on it
+    assert emulator.control("pointing-errors ID=6")["ok"] is True
+    state = emulator.control("state")["state"]
+    assert abs(state["sky_dec_deg"] - (90.0 - 0.1)) < 1e-9  # sky = axes - (-ID) past the pole: 6′ from it
+    assert emulator.terminate() == 0

@@ -150,7 +150,14 @@ def test_a_switch_flipped_on_a_running_mount_applies_at_once(mount: MountClient,
         {"gps_reply": "x"},
         {"hp_reply": "1"},
         {"gh_reply": "2#"},
-        {"model": "AM9"},
+        {"model": "EQ6"},  # any AM<digit> with a suffix is a ZWO model (AM5N, AM9); nothing else is
+        {"model": "AM5-N"},
+        {"park_refusal": "e15"},
+        {"hp_while_tracking": "sometimes"},
+        {"status_word": "1.9"},
+        {"unknown_query": "hash"},
+        {"home_reading": "N"},
+        {"jog_rates": "fast"},
     ],
 )
 def test_invalid_variant_values_are_rejected(kwargs: dict[str, str]) -> None:

@@ -11,6 +11,7 @@ from alpaca_zwo.emulator import EmulatorServer, MountModel, ScaledClock
 from alpaca_zwo.mount.operations import Mount
 from alpaca_zwo.mount.state import MountState
 from alpaca_zwo.sky import SIDEREAL_DEG_S
+from alpaca_zwo.zwo.firmware import preset
 from alpaca_zwo.zwo.link import Link
 from alpaca_zwo.zwo.wire_values import Direction, TrackRate
 
@@ -147,3 +148,31 @@ def test_host_clock_is_used_when_no_clock_given() -> None:
     link = Link("loop://")
     mount = Mount(link, lambda: SITE)
     assert abs((mount.clock() - datetime.now(timezone.utc)).total_seconds()) < 1
+
+
+# --- the mount's own park -------------------------------------------------------------------
+
+
+def _asked_park(mount: Mount) -> int:
+    return sum(1 for entry in mount.link.trace() if entry.request == ":Gps#")
+
+
+@pytest.mark.parametrize(("switches", "times"), [
+    ({}, range(3, 1000)),  # not tracking at power-up: :Gps# is read every poll, a park would be seen
+    ({"version": "1.1.0"}, range(0, 1)),  # no firmware park before 1.1.9: never asked
+    ({"gps_reply": "empty"}, range(1, 2)),  # asked once, answered '#': not asked again on this link
+])
+def test_the_park_state_is_read_only_where_the_firmware_has_it(switches: dict[str, str], times: range) -> None:
+    model = MountModel(ScaledClock(), firmware=preset(**switches))
+    with EmulatorServer(model, host="127.0.0.1", port=0, baud=0) as emulator:
+        link = Link(f"socket://127.0.0.1:{emulator.port}", timeout=1.0)
+        mount = Mount(link, lambda: SITE, clock=model.clock.now, poll_fast_s=0.05, poll_slow_s=0.05)
+        mount.connect()
+        try:
+            state = mount.state
+            for _ in range(3):
+                state = _fresh(mount, state.position_time or 0.0)
+            assert _asked_park(mount) in times
+            assert state.park == (0 if not switches else None) and not state.parked_by_mount
+        finally:
+            mount.disconnect()

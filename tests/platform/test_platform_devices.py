@@ -238,3 +238,17 @@ def test_usb_ids_pick_the_mount_and_other_devices_are_never_opened(ports: dict, 
     table = devices.format_candidates(list(candidates.values()))
     assert "USB 03c3:4001, ZWO mount on USB (ZWO AM5); answered :GVP# with 'AM5#'" in table
     assert "USB 2341:0043, another USB device: Arduino Uno (not asked)" in table
+
+
+@pytest.mark.parametrize("model", ["AM5N", "AM5X"])
+def test_a_model_name_with_a_suffix_is_a_zwo_mount(model: str) -> None:
+    """Any ``AM<digit>`` with a suffix is a ZWO mount (issue 39: ``:GVP#`` is ``AM5N#`` on the AM5N)."""
+    port = FakePort(f"{model}#".encode())
+    try:
+        done = subprocess.run([*CLI, "--list-devices", *_probe_args(port.path)],
+                              capture_output=True, text=True, timeout=60, cwd=REPO_ROOT)
+    finally:
+        port.close()
+    assert done.returncode == 0, done.stderr
+    assert f"answered :GVP# with '{model}#': ZWO {model}" in done.stdout
+    assert bytes(port.received) == b":GVP#"

@@ -231,6 +231,7 @@ EMULATOR_CONFIGS: dict[str, dict[str, Any]] = {
     "am5-south-altaz": {"preset": "am5-1.9.2", "site": SOUTH, "altaz": True},
     "am5n-1.6.3-north": {"preset": "am5n-1.6.3", "site": NORTH},
     "am5-1.8.8-south": {"preset": "am5-1.8.8", "site": SOUTH},
+    "am5n-1.8.8-north": {"preset": "am5n-1.8.8", "site": NORTH},
     "am5-x2-north": {"preset": "am5-x2", "site": NORTH},
     "am3-1.6.3-south": {"preset": "am3-1.6.3", "site": SOUTH},
     "am7-2.0.0-north-altaz": {"preset": "am7-2.0.0", "site": NORTH, "altaz": True},
@@ -250,7 +251,10 @@ def _firmware(config: dict[str, Any]) -> Any:
 
     if "switches" in config:
         return FirmwareVariant(**config["switches"])
-    return preset(config["preset"])
+    # The record is of what the mount answers, one request at a time: a busy 1.8.8 mount's late
+    # acknowledgement (ack_while_slewing) would land in whichever later reply is open when its slew
+    # ends. Its timing is tested where it matters, tests/zwo/test_late_acks.py.
+    return preset(config["preset"], ack_while_slewing="prompt")
 
 
 def _model(config: dict[str, Any], clock: Any, initialized: bool) -> Any:

@@ -145,8 +145,17 @@ def test_status_format_round_trips() -> None:
     assert w.parse_status(w.format_status(status)) == status
 
 
-def test_error_codes_cover_one_to_twelve() -> None:
-    assert sorted(p.ERROR_CODES) == list(range(1, 13))
+def test_error_codes_cover_one_to_twelve_and_the_parked_fourteen() -> None:
+    assert sorted(p.ERROR_CODES) == [*range(1, 13), 14]  # e14#: refused while parked (real 1.8.8, S1)
+
+
+def test_real_status_words_show_the_firmware_park_by_their_last_digit() -> None:
+    """Real 1.8.8 shows its park as a status word ending in 5, never a 'P' (real-transcripts §1)."""
+    parked = w.parse_status("nGM000000005")
+    assert parked.parked and not parked.tracking and parked.slewing  # no 'N': only :Gps# tells parked from parking
+    assert not w.parse_status("nNGM000000000").parked  # right after :Spu# (S1's ASIMount trace)
+    assert not w.parse_status("NGM011000211").parked  # tracking (S2)
+    assert w.parse_status("nNGP000000000").parked  # the documents' 'P' still counts
 
 
 # --- requests and replies -------------------------------------------------------------------
