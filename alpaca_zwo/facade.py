@@ -475,7 +475,6 @@ class DeviceFacade:
         progress = self._telescope.satellites.progress()
         return None if progress is None else dataclasses.asdict(progress)
 
-
     # -- the owner's survey (zwo/survey.py, docs/survey.md) --------------------------------------------
 
     def _survey_refusal(self) -> str:
