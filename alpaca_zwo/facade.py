@@ -18,6 +18,7 @@ the pure ``sky`` module, not through here; ``tests/test_layers.py`` holds the pa
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 import time
@@ -28,13 +29,22 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from . import __version__
-from ._exceptions import AlpacaError, AlpacaZwoError, InvalidOperation, LinkError, MountReplyError, ProtocolError
+from ._exceptions import (
+    AlpacaError,
+    AlpacaZwoError,
+    InvalidOperation,
+    InvalidValue,
+    LinkError,
+    MountReplyError,
+    ProtocolError,
+)
 from .clients import ClientActivity, ClientKey, current_client
 from .config.settings import ParkSettings, Settings, horizon_altitude_at, settings_from_dict, settings_to_dict
 from .motion import Motion, MotionKind
 from .mount.state import MountSettings, MountState
 from .mount.timekeeping import ClockView
-from .sky import SIDEREAL_DEG_S
+from .sky import SIDEREAL_DEG_S, PierSide
+from .telescope.passes import Pass
 from .telescope.stored_settings import CHECKS as STORED_CHECKS
 from .zwo.link import LinkCounters, LinkStatus, Priority, TraceEntry
 from .zwo.survey import SurveyContext, SurveyReport, run_survey
@@ -435,6 +445,45 @@ class DeviceFacade:
         """SyncToCoordinates (the mount's frame), with its refusals."""
         self._telescope.sync_to_coordinates(ra_hours, dec_deg)
 
+    # -- satellites (issue 41: telescope/satellites.py) --------------------------------------------
+
+    def satellites(self, hours: float) -> list[dict[str, Any]]:
+        """The kept TLE sets, each with its age, its old-set warning and its passes over the next ``hours``
+        that clear the limits (times as UTC datetimes; the page puts them in the site's zone)."""
+        part = self._telescope.satellites
+        now = self.utc_now()
+        found = []
+        for tle in part.sets():
+            warning = tle.stale(now)
+            try:
+                planned = [_pass_view(p) for p in part.passes(tle, hours, now)]
+            except InvalidValue as exc:  # elements SGP4 cannot carry this far (decayed, years old)
+                planned, warning = [], exc.message
+            found.append({"number": tle.number, "name": tle.name, "epoch": tle.epoch,
+                          "age_days": round(tle.age_days(now), 2), "warning": warning, "passes": planned})
+        return found
+
+    def add_satellites(self, text: str) -> list[str]:
+        """Keep the sets in ``text`` (a paste or an uploaded file); their names."""
+        return [tle.name for tle in self._telescope.satellites.add(text)]
+
+    def remove_satellite(self, number: int) -> None:
+        self._telescope.satellites.remove(number)
+
+    def follow_satellite(self, number: int) -> None:
+        """Follow the next pass of a kept satellite (the device must be connected, as for a GoTo)."""
+        self._telescope.connection.require_connected()
+        part = self._telescope.satellites
+        part.follow(part.find(number))
+
+    def stop_following(self) -> None:
+        self._telescope.satellites.stop()
+
+    def satellite_progress(self) -> dict[str, Any] | None:
+        """The follow running or last run (``Satellites.progress``), as a dict; None before the first."""
+        progress = self._telescope.satellites.progress()
+        return None if progress is None else dataclasses.asdict(progress)
+
     # -- the owner's survey (zwo/survey.py, docs/survey.md) --------------------------------------------
 
     def _survey_refusal(self) -> str:
@@ -483,6 +532,14 @@ class DeviceFacade:
             pointing.set_enabled(enabled)
         self._telescope.mount.refresh()
         return pointing.report()
+
+
+def _pass_view(planned: Pass) -> dict[str, Any]:
+    """A pass as the page lists it: its instants, how high, the part followed and its side plan."""
+    return {"rise": planned.rise, "culmination": planned.culmination, "set": planned.set,
+            "max_altitude": round(planned.max_altitude, 1), "enters": planned.enters, "leaves": planned.leaves,
+            "side": {PierSide.EAST: "pierEast", PierSide.WEST: "pierWest"}.get(planned.side.side),
+            "side_until": planned.side.until, "side_note": planned.side.why, "keyhole": planned.keyhole}
 
 
 class ServerFacade:

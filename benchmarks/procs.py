@@ -128,17 +128,18 @@ class Emulator:
                 "exchanges": totals["exchanges"], "replies": totals["replies"]}
 
 
-def start_emulator(run_dir: Path, baud: int, cpus: tuple[int, ...] | None) -> Emulator:
-    """The emulator at ``baud``; DEBUG logging stamps every request when its last byte arrives."""
+def start_emulator(run_dir: Path, baud: int, cpus: tuple[int, ...] | None, extra: tuple[str, ...] = ()) -> Emulator:
+    """The emulator at ``baud``; DEBUG logging stamps every request when its last byte arrives. ``extra``:
+    more of its options (``--start-time``, ``--mode`` ...)."""
     argv = [sys.executable, "-m", "alpaca_zwo.emulator", "--port", "0", "--baud", str(baud), "--control-port", "0",
-            "--log-level", "DEBUG"]
+            "--log-level", "DEBUG", *extra]
     proc = _spawn("emulator", argv, run_dir, {"tcp": r"^tcp [\d.]+:(\d+)$", "control": r"^control [\d.]+:(\d+)$"},
                   cpus=cpus)
     return Emulator(proc)
 
 
 def start_alpaca_zwo(run_dir: Path, device_port: int, cpus: tuple[int, ...] | None, *,
-                     threads: int | None = None, patches: str = "") -> Proc:
+                     threads: int | None = None, patches: str = "", env: dict[str, str] | None = None) -> Proc:
     """``python -m alpaca_zwo`` with a fresh config file, exactly as the README starts it.
 
     ``threads`` overrides the config's waitress worker-thread count (for the thread sweep);
@@ -150,7 +151,8 @@ def start_alpaca_zwo(run_dir: Path, device_port: int, cpus: tuple[int, ...] | No
     module = ["-m", "benchmarks.patched_server", "--patch", patches, "--"] if patches else ["-m", "alpaca_zwo"]
     argv = [sys.executable, *module, "--host", "127.0.0.1", "--port", "0", "--discovery-port", "0",
             "--config", str(config), "--device", f"socket://127.0.0.1:{device_port}"]
-    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH", "")]))}
+    paths = [str(REPO), os.environ.get("PYTHONPATH", ""), (env or {}).get("PYTHONPATH", "")]
+    env = {**(env or {}), "PYTHONPATH": os.pathsep.join(filter(None, paths))}
     return _spawn("alpaca-zwo", argv, run_dir, {"http": r"Alpaca API:\s+http://127\.0\.0\.1:(\d+)/"}, cpus=cpus,
                   env=env)
 

@@ -40,7 +40,8 @@ else:  # pragma: no cover
 ROOT = Path(__file__).resolve().parents[1]
 #: What a user reads: the README, the guide and the notes the guide serves.
 READ = [ROOT / "README.md", *sorted((ROOT / "docs" / "guide").glob("*.md")),
-        *(ROOT / "docs" / f"{name}.md" for name in ("meridian", "southern", "objects", "survey", "pointing-errors"))]
+        *(ROOT / "docs" / f"{name}.md" for name in ("meridian", "southern", "objects", "survey", "pointing-errors",
+                                                     "satellites"))]
 #: Every Markdown file whose links must hold (ARCHITECTURE.md is the developers' map).
 LINKED = [*READ, ROOT / "docs" / "ARCHITECTURE.md"]
 #: Flags of other programs the guide quotes (pip, podman/docker, systemctl).

@@ -71,9 +71,8 @@ PLANETS = ("Mercury", "Venus", "Mars", "Jupiter", "Saturn", "Uranus", "Neptune")
 _BODY_KIND = {"Sun": "star (the Sun)", "Moon": "moon", **{p: "planet" for p in PLANETS}}
 SATELLITES = ("iss", "international space station", "tiangong", "css", "hst", "hubble space telescope",
               "starlink", "satellite", "satellites")
-SATELLITE_NOTE = ("Satellites cross the sky in minutes: the hand controller points at catalogued places and does "
-                  "not track satellites (the ISS, Starlink); a satellite-tracking program can drive the mount "
-                  "through Alpaca instead.")
+SATELLITE_NOTE = ("Satellites cross the sky in minutes and are not in the catalogue: give the satellite's TLE "
+                  "on the Satellites card, which lists its passes and follows one (docs/satellites.md).")
 
 
 class ObjectError(ValueError):

@@ -8,9 +8,11 @@ offset payer all use (kept here so none of them imports another for them).
 from __future__ import annotations
 
 import logging
+import math
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from datetime import datetime
 from enum import Enum
 
 from ..clients import ClientKey
@@ -39,6 +41,7 @@ class MotionKind(Enum):
     HOME = "find home"
     MOVE = "MoveAxis"
     STOP = "stop"
+    FOLLOW = "satellite pass"  # a target followed with axis speeds (follow.py)
 
 
 class Phase(Enum):
@@ -64,6 +67,48 @@ class Landing:
     pulse_end: float = 0.0  # mount time the residual pulses end (sky)
 
 
+#: A target: UTC -> (RA hours, Dec degrees) in the client's frame. Raises ValueError where it has no place.
+Target = Callable[[datetime], tuple[float, float]]
+
+#: The lead before the first measurement: one tick plus the write of two speed changes at 9600 baud.
+INITIAL_LEAD_S = TICK_S + 0.035
+#: Once the error stays under this (degrees) the target counts as acquired: the figures start there.
+ACQUIRED_DEG = 3.0 / 60.0
+
+
+@dataclass
+class Follow:
+    """One follow: what is followed, its phase, and what the page and the Action read back."""
+
+    name: str
+    target: Target
+    enters: datetime  # the target enters the allowed sky
+    aim: datetime  # the point the mount waits at: the target's place then (a little inside the allowed sky)
+    leaves: datetime  # the follow ends: the target leaves the allowed sky (or the side's reach)
+    phase: str = "aiming"  # aiming (the GOTO), waiting (holding the aim point), following, ended
+    ended: str = ""  # why it ended ('' while it runs)
+    lead_s: float = INITIAL_LEAD_S
+    speeds: list[float] = field(default_factory=lambda: [0.0, 0.0])  # sky deg/s sent: RA (+ east), Dec
+    error_deg: float | None = None  # the last pointing error
+    acquired: datetime | None = None
+    squares: float = 0.0  # of the errors after acquisition (deg²)
+    samples: int = 0
+    worst_deg: float = 0.0
+
+    @property
+    def rms_deg(self) -> float | None:
+        return math.sqrt(self.squares / self.samples) if self.samples else None
+
+    def note_error(self, now: datetime, error_deg: float) -> None:
+        self.error_deg = error_deg
+        if self.acquired is None and error_deg <= ACQUIRED_DEG:
+            self.acquired = now
+        if self.acquired is not None:
+            self.squares += error_deg * error_deg
+            self.samples += 1
+            self.worst_deg = max(self.worst_deg, error_deg)
+
+
 @dataclass
 class Motion:
     kind: MotionKind
@@ -79,6 +124,7 @@ class Motion:
     queued: bool = False  # it replaced a motion, so its command may meet the mount still braking
     done: threading.Event = field(default_factory=threading.Event)
     error: str = ""  # why it ended short: a failure, or one of INTERRUPTIONS
+    follow: Follow | None = None  # what a FOLLOW motion follows (follow.py)
 
 
 #: ``Motion.error`` values for a motion that did not fail but was ended by a client, and what a

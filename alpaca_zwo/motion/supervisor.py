@@ -78,6 +78,7 @@ from ..mount.operations import Mount
 from ..mount.state import MountState
 from ..zwo.wire_values import Direction
 from .balance import CYCLE_S, RateOffsets
+from .follow import Follower
 from .guiding import Guiding
 from .interlock import Interlock
 from .kinds import (
@@ -86,6 +87,7 @@ from .kinds import (
     MAX_MOTION_S,
     STATUS_LAG_S,
     TICK_S,
+    Follow,
     Generation,
     Landing,
     ManualMove,
@@ -148,6 +150,7 @@ class MotionSupervisor:
         self.payer = OffsetPayer(mount=mount, ledger=self.offsets, guiding=self.guiding, stops=self.stops,
                                  moving=self._moving)
         self.lander = Lander(mount=mount, lst=lst, guiding=self.guiding, rest=self.rest, stops=self.stops)
+        self.follower = Follower(mount=mount)
         self._stop_pending = ""  # why a safety stop is still owed to the mount ('' = none)
         self._stopped = threading.Event()
         registry.protect(self.move_owners)  # the watchdog needs every owner's last-seen time
@@ -230,6 +233,7 @@ class MotionSupervisor:
                         brake_s=speed / DECELERATION_DEG_S2)
         if previous is not None:
             previous.error = previous.error or "stopped"
+            _end_follow(previous, "stopped")
             previous.done.set()
         return motion
 
@@ -286,6 +290,7 @@ class MotionSupervisor:
         with self._lock:
             if kind is not MotionKind.PARK:  # before anything changes: a refusal leaves a running park alone
                 self.interlock.require(kind.value)
+                self._refuse_during_follow(kind.value)
             generation = self.stops.bump()
             busy = (self.motion is not None or bool(self.moves) or bool(state.moving_axes)
                     or state.goto_running or any(self.mount.drift_rates))
@@ -293,6 +298,7 @@ class MotionSupervisor:
             previous, self.motion = self.motion, motion
         if previous is not None:
             previous.error = previous.error or "replaced"
+            _end_follow(previous, "replaced by a park")
             previous.done.set()
         try:
             if busy:
@@ -396,6 +402,34 @@ class MotionSupervisor:
             log.debug("%s: the mount is still braking (e3); sending the GOTO again", motion.kind.value)
             time.sleep(BRAKED_RETRY_S)
 
+    def follow(self, follow: Follow) -> Motion:
+        """Follow a moving target (a satellite's pass, follow.py): slew to where it enters the allowed sky,
+        wait for it, then drive the axes' speeds until it leaves. One motion throughout: Slewing is true,
+        any stop ends it, and other motions, pulses and rate offsets are refused while it runs."""
+        with self._start_lock:
+            motion = self._begin(MotionKind.FOLLOW)
+            with self._lock:
+                self.offsets.reset()  # the speeds carry the whole motion: no offset may drift beside them
+            motion.follow = follow
+            here = self.mount.position()
+            try:
+                ground = self.follower.held(follow)(self.mount.time.now())
+                distance = 0.0 if here is None else sky.angular_separation(*ground, *here)
+                ra, dec = self.follower.aim_point(follow, SLEW_S_FIXED + distance * SLEW_S_PER_DEG)
+            except ValueError as exc:
+                self._withdraw(motion)
+                raise InvalidOperation(f"{follow.name}: {exc}") from exc
+            motion.landing = Landing(False, ra % 24.0, 0.0, dec, False)
+            self._send_goto(motion, ra, dec)
+        return motion
+
+    def _refuse_during_follow(self, what: str) -> None:
+        """Refuse ``what`` while a follow runs, saying why and how to end it."""
+        motion = self.motion
+        if motion is not None and motion.kind is MotionKind.FOLLOW and motion.follow is not None:
+            raise InvalidOperation(f"{what} refused: the mount is following {motion.follow.name}'s pass; "
+                                   "stop it first (AbortSlew, STOP, or zwo:TrackSatellite stop)")
+
     def home(self, kind: MotionKind = MotionKind.HOME) -> Motion:
         with self._start_lock:
             motion = self._begin(kind)
@@ -413,6 +447,7 @@ class MotionSupervisor:
             return
         with self._start_lock:
             motion = self.motion
+            self._refuse_during_follow("MoveAxis")
             if motion is not None and motion.kind not in (MotionKind.MOVE, MotionKind.STOP):
                 raise InvalidOperation(f"a {motion.kind.value} is in progress; abort it first")
             self.limits.check_move(axis, rate)
@@ -449,6 +484,7 @@ class MotionSupervisor:
     def pulse(self, direction: Direction, duration_ms: int) -> None:
         """Start a guide pulse of any length (sent in chunks the mount accepts)."""
         self.interlock.require("PulseGuide")  # even a zero-length one: the rule is simply "no PulseGuide"
+        self._refuse_during_follow("PulseGuide")
         if self.motion is not None and self.motion.kind is not MotionKind.STOP:
             raise InvalidOperation(f"cannot pulse guide during a {self.motion.kind.value}")
         if duration_ms == 0:
@@ -465,6 +501,7 @@ class MotionSupervisor:
         """RightAscensionRate / DeclinationRate (arcsec/s of sky; axis 0 + is east); zero always goes."""
         if arcsec_per_s != 0.0:
             self.interlock.require("A rate offset")
+            self._refuse_during_follow("A rate offset")
         self.payer.set_rate(axis, arcsec_per_s)
         self._notify()
 
@@ -558,7 +595,7 @@ class MotionSupervisor:
         motion = self.motion
         if motion is None:
             return
-        if now - motion.started > MAX_MOTION_S and motion.kind is not MotionKind.MOVE:
+        if now - motion.started > MAX_MOTION_S and motion.kind not in (MotionKind.MOVE, MotionKind.FOLLOW):
             log.error("%s did not finish within %.0f s: stopping", motion.kind.value, MAX_MOTION_S)
             motion.error = "did not finish in time"
             self.safety_stop(f"{motion.kind.value} overran")
@@ -589,6 +626,9 @@ class MotionSupervisor:
     def _tick_moving(self, motion: Motion, now: float, state: MountState) -> None:
         if motion.kind is MotionKind.MOVE:
             return
+        if motion.follow is not None:
+            self._tick_follow(motion, motion.follow, now, state)
+            return
         if state.status_time is None or state.status_time <= motion.started or state.status is None:
             return  # no reading taken after the command yet
         if state.goto_running:
@@ -597,6 +637,38 @@ class MotionSupervisor:
         if not motion.saw_busy and state.status_time - motion.started < STATUS_LAG_S:
             return  # the flags may still show the state from before the command
         self.lander.arrived(motion, now)
+
+    def _tick_follow(self, motion: Motion, follow: Follow, now: float, state: MountState) -> None:
+        """A follow's phases (follow.py): the slew to the entry point ends as any GOTO's does (the flags),
+        then the follower steers until the pass, the limits or a failure end it."""
+        if follow.phase == "aiming":
+            if self.mount.time.now() >= follow.leaves:
+                self._end_following(motion, follow, "the pass ended before the slew to it did", now)
+                return
+            if state.status_time is None or state.status_time <= motion.started or state.status is None:
+                return
+            if state.status.slewing:
+                motion.saw_busy = True
+            elif motion.saw_busy or state.status_time - motion.started >= STATUS_LAG_S:
+                follow.phase = "waiting"
+            return
+        why = self.follower.tick(follow, state, self.stops.guard(motion.generation))
+        if not why and follow.phase == "following":
+            reason = self.limits.reached(dict(enumerate(follow.speeds)), state)
+            why = f"it would cross the {reason}" if reason else ""
+        if why:
+            self._end_following(motion, follow, why, now)
+
+    def _end_following(self, motion: Motion, follow: Follow, why: str, now: float) -> None:
+        """Stop the axes and let the motion settle like a stop (Slewing true until at rest)."""
+        speed = max(abs(v) for v in follow.speeds)
+        _end_follow(motion, why)
+        log.info("%s: following ended: %s", follow.name, why)
+        self.safety_stop(f"{follow.name}: {why}")
+        with self._lock:
+            motion.phase = Phase.SETTLING
+            motion.rest_from = now
+            motion.brake_s = speed / DECELERATION_DEG_S2
 
     def _finish(self, motion: Motion) -> None:
         with self._lock:
@@ -635,3 +707,11 @@ class MotionSupervisor:
         if reason:
             for axis in list(self.moves):
                 self.stop_axis(axis, f"manual move stopped before the {reason}")
+
+
+def _end_follow(motion: Motion, why: str) -> None:
+    """Mark a FOLLOW motion's follow ended (its first reason stands)."""
+    follow = motion.follow
+    if follow is not None and follow.phase != "ended":
+        follow.phase = "ended"
+        follow.ended = why

@@ -6,7 +6,8 @@ member table (``alpaca/members.py``) names them: ``connection.Connection`` (clie
 lingering the link, the mount settings a connect pushes), ``capabilities.Capabilities`` (the Can*
 flags that vary, the drive/offset/guide/axis rates, site), ``clock.SiteClock`` (UTCDate, sidereal
 time), ``targets.Targets`` (targets, settle time) and ``raw_commands.RawCommands``; the pure target
-checks (``pointing``), and the ``zwo:*`` Actions (``actions``).
+checks (``pointing``), the ``zwo:*`` Actions (``actions``), and ``satellites.Satellites`` (kept TLE sets,
+their passes: ``passes``, ``orbits``; the follow of one).
 
 May import ``motion``, ``mount``, ``config``, ``zwo``, ``clients`` and ``sky``; never ``alpaca``,
 ``web`` or the bridges (they call it).

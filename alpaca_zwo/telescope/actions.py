@@ -36,6 +36,7 @@ from .._exceptions import (
     mount_errors,
 )
 from ..config.settings import Settings, settings_from_dict, settings_to_dict
+from ..motion.kinds import MotionKind
 from ..zwo.wire_values import MeridianSettings, MountMode, MountStatus, parse_status
 from .stored_settings import CHECKS
 
@@ -45,6 +46,7 @@ if TYPE_CHECKING:
     from ..mount.operations import Mount
     from ..mount.state import MountSettings
     from .connection import Connection
+    from .satellites import Satellites
     from .stored_settings import StoredSettings
 
 
@@ -57,6 +59,7 @@ class ActionDevice(Protocol):
     motion: MotionSupervisor
     connection: Connection  # who holds the device connected
     stored_settings: StoredSettings  # the settings stored in the mount: their one check and write path
+    satellites: Satellites  # the kept TLE sets and the follow of a pass (issue 41)
 
     @property
     def settings(self) -> Settings: ...
@@ -328,6 +331,48 @@ def _write_pointing_model(telescope: ActionDevice, changes: Reply) -> None:
     telescope.mount.refresh()  # the position reads through the changed model at the next poll
 
 
+def _tle_text(value: object) -> str:
+    if not isinstance(value, str) or not value.strip() or len(value) > 600:
+        raise ValueError('must be a satellite\'s TLE: "<name>\\n<line 1>\\n<line 2>" (at most 600 characters)')
+    return value
+
+
+def _stop_flag(value: object) -> bool:
+    if value is not True:
+        raise ValueError(f"must be true, got {json.dumps(value)}")
+    return True
+
+
+def _read_satellite(telescope: ActionDevice) -> Reply:
+    """The follow running or last run (what it follows, its phase, its pointing error), the kept sets
+    and the warnings about old ones."""
+    satellites = telescope.satellites
+    progress = satellites.progress()
+    running = telescope.motion.running()
+    reply: Reply = {"following": running is not None and running.kind is MotionKind.FOLLOW,
+                    "satellites": [tle.name for tle in satellites.sets()], "warnings": satellites.warnings()}
+    if progress is not None:
+        reply.update({"name": progress.name, "phase": progress.phase, "ended": progress.ended,
+                      "enters": progress.enters.isoformat(), "leaves": progress.leaves.isoformat(),
+                      "error_arcmin": progress.error_arcmin, "rms_arcmin": progress.rms_arcmin,
+                      "worst_arcmin": progress.worst_arcmin,
+                      "acquired": progress.acquired.isoformat() if progress.acquired else None,
+                      "lead_s": progress.lead_s})
+    return reply
+
+
+def _write_satellite(telescope: ActionDevice, changes: Reply) -> None:
+    if "stop" in changes and "tle" in changes:
+        raise InvalidValue("zwo:TrackSatellite: give either tle (start) or stop, not both")
+    if "stop" in changes:
+        telescope.satellites.stop()
+        return
+    if telescope.motion.parked:
+        raise InvalidOperation("zwo:TrackSatellite: the mount is parked; unpark it first")
+    (tle, *_) = telescope.satellites.add(changes["tle"])
+    telescope.satellites.follow(tle)
+
+
 # ================================================================================================
 # The table
 # ================================================================================================
@@ -381,6 +426,13 @@ ACTIONS: tuple[ZwoAction, ...] = (
               _write_pointing_model, '{"enabled": false}'),
     ZwoAction("zwo:Safety", "The observatory interlock: whether motion may start by the configured SafetyMonitor "
               "and roof, which device decided, since when, and why (read-only).", _read_safety),
+    ZwoAction("zwo:TrackSatellite", "Follow a satellite's next pass from its TLE (kept beside the configuration): "
+              "waits where the pass enters the allowed sky, then drives the axes' speeds until it leaves; "
+              "stop ends it; empty Parameters read the progress, the pointing error and old-set warnings "
+              "(docs/satellites.md).", _read_satellite,
+              {"tle": Field(_tle_text, '"<name>\\n<line 1>\\n<line 2>": keep this set and follow its next pass'),
+               "stop": Field(_stop_flag, "true: stop following")},
+              _write_satellite, '{"tle": "ISS (ZARYA)\\n1 25544U ...\\n2 25544 ..."}'),
 )
 
 _BY_NAME: dict[str, ZwoAction] = {action.name.lower(): action for action in ACTIONS}

@@ -54,6 +54,7 @@ from .capabilities import AXIS_MIN_DEG_S, Capabilities
 from .clock import SiteClock
 from .connection import Connection
 from .raw_commands import RawCommands
+from .satellites import Satellites
 from .stored_settings import StoredSettings
 from .targets import Targets
 
@@ -79,8 +80,9 @@ class Telescope:
     ``connection`` (clients and the mount link; both locks live there), ``capabilities`` (the flags
     that vary, rates, site), ``clock`` (UTCDate, sidereal time), ``targets`` (targets, settle time),
     ``raw_commands``; and, answering none, ``motion`` (the supervisor; its own locks), ``flips``
-    (pier flips; its own lock) and ``stored_settings`` (the settings stored in the mount: the one path
-    the Actions, the page and the shared ZWO port change them by; the meridian setting in force). A
+    (pier flips; its own lock), ``stored_settings`` (the settings stored in the mount: the one path
+    the Actions, the page and the shared ZWO port change them by; the meridian setting in force) and
+    ``satellites`` (the kept TLE sets, their passes and the follow of one: issue 41). A
     caller outside ``telescope/`` uses the part that answers, as a client would:
     ``telescope.connection.set_connected(True)``, ``telescope.clock.utc_now()``.
     """
@@ -114,6 +116,10 @@ class Telescope:
                                         require_connected=self.connection.require_connected)
         self.flips = PierFlips(mount=mount, motion=self.motion,  # SideOfPier writes
                                configured=lambda: self.stored_settings.meridian)
+        self.satellites = Satellites(mount=mount, motion=self.motion, settings=lambda: self.store.settings,
+                                     mount_limits=self._mount_altitude_limits,
+                                     flip_line_deg=self.stored_settings.flip_line_deg,
+                                     folder=None if store.path is None else store.path.parent)
 
     # -- configuration -----------------------------------------------------------------------
 

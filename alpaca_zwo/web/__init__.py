@@ -3,10 +3,10 @@
 One module per job: ``files`` (the page and its static files), ``status`` (the status feed),
 ``settings`` (the settings API, server settings included), ``commands`` (the controls), ``trace``
 (the serial trace), ``logview`` (the log view), ``guide`` (the user guide at ``/docs``), ``observatory``
-(the safety interlock's state and finding its devices), ``pointing`` (the pointing model), ``survey``
-(the owner's survey), ``http`` (security and JSON plumbing) and ``context`` (what the routes share).
-The package talks to the rest of the server only through :mod:`alpaca_zwo.facade`; ``goto`` and
-``skyview`` read the object catalogue (:mod:`alpaca_zwo.catalogue`,
+(the safety interlock's state and finding its devices), ``pointing`` (the pointing model), ``satellites``
+(kept TLE sets, their passes, following one), ``survey`` (the owner's survey), ``http`` (security and JSON
+plumbing) and ``context`` (what the routes share). The package talks to the rest of the server only through
+:mod:`alpaca_zwo.facade`; ``goto`` and ``skyview`` read the object catalogue (:mod:`alpaca_zwo.catalogue`,
 pure data and search) on their first request.
 
 May import ``alpaca_zwo.facade``, ``alpaca_zwo.catalogue`` and itself, nothing else of the package (a test checks).
@@ -27,6 +27,7 @@ from .http import CSRF_HEADER, check_same_origin
 from .logview import LogBuffer, LogResource, LogText, log_buffer
 from .observatory import SafetyDiscoverResource, SafetyResource, SafetyTestResource
 from .pointing import PointingModelResource
+from .satellites import FollowResource, SatellitesResource
 from .settings import ServerResource, SettingsResource
 from .skyview import SkyResource
 from .status import StatusResource
@@ -66,6 +67,8 @@ def setup_routes(server: FacadeProvider, static_root: Path | None = None) -> lis
         ("/setup/api/telescope/{number}/sync", SyncResource(web)),
         ("/setup/api/telescope/{number}/sky", SkyResource(web)),
         ("/setup/api/telescope/{number}/pointing-model", PointingModelResource(web)),
+        ("/setup/api/telescope/{number}/satellites", SatellitesResource(web)),
+        ("/setup/api/telescope/{number}/satellites/follow", FollowResource(web)),
         ("/setup/api/telescope/{number}/trace.txt", TraceText(web)),
         ("/setup/api/telescope/{number}/survey", SurveyResource(web)),
         ("/setup/api/telescope/{number}/survey.txt", SurveyText(web)),

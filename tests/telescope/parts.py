@@ -62,17 +62,19 @@ def closed_port() -> int:
 
 @contextmanager
 def parts_rig(tmp_path: Path, *, url: str | None = None, settings: Settings | None = None,
-              **model_options: Any) -> Iterator[Rig]:
+              clock: ScaledClock | None = None, **model_options: Any) -> Iterator[Rig]:
     """The collaborators of a Telescope part on the real emulator (``url``: another mount instead).
 
-    ``model_options`` go to :class:`MountModel` (``firmware=``, ``mode=``); everything is stopped after.
+    ``model_options`` go to :class:`MountModel` (``firmware=``, ``mode=``); ``clock`` is the emulated
+    universe's (default: ``RIG_SPEED`` times real time, from now); everything is stopped after.
     """
-    model = MountModel(ScaledClock(RIG_SPEED), **model_options)
+    clock = clock or ScaledClock(RIG_SPEED)
+    model = MountModel(clock, **model_options)
     emulator = EmulatorServer(model, host="127.0.0.1", port=0, baud=0).start()
     store = SettingsStore(settings or make_settings(), tmp_path / "config.toml")
     link = Link(url or f"socket://127.0.0.1:{emulator.port}", timeout=1.0, reconnect_delays=(0.1, 0.2, 0.5))
     mount = Mount(link, lambda: (store.settings.site.latitude, store.settings.site.longitude),
-                  clock=model.clock.now, monotonic=model.clock.seconds, clock_rate=RIG_SPEED)
+                  clock=model.clock.now, monotonic=model.clock.seconds, clock_rate=clock.speed)
     registry = ClientRegistry()
     motion = MotionSupervisor(mount, lambda: store.settings,
                               lambda now=None: sky.local_sidereal_time(now or mount.time.now(),

@@ -1,0 +1,87 @@
+"""Following a satellite's pass end to end on the emulator (issue 41): the ISS of the shipped TLE, with the
+emulated universe started a little before its pass, in real time.
+
+Judged by the emulator's truth (where the tube points, ``MountModel.position``) against SGP4's place every
+0.1 s once the follower says it has acquired the satellite; and the motion rules: Slewing true throughout,
+other motions and guiding refused with words that say why, a stop ends it at once and the mount comes to
+rest.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from datetime import timedelta
+from pathlib import Path
+
+import pytest
+
+from alpaca_zwo import sky
+from alpaca_zwo._exceptions import InvalidOperation
+from alpaca_zwo.emulator import ScaledClock
+from alpaca_zwo.motion.kinds import MotionKind
+from alpaca_zwo.telescope.orbits import parse_tles
+from alpaca_zwo.telescope.passes import Pass, Sky, passes
+from alpaca_zwo.telescope.satellites import Satellites
+from alpaca_zwo.zwo.wire_values import Direction, MountMode
+from tests.conftest import make_settings
+from tests.support.wait import wait_until
+from tests.telescope.parts import Rig, parts_rig
+
+ISS = parse_tles((Path(__file__).parents[1] / "support" / "tle" / "iss-2018-05-15.tle").read_text(encoding="utf-8"))[0]
+#: Seconds of the pass judged after acquisition (real time: the emulator runs at 1x).
+JUDGED_S = 25.0
+
+
+def _pass(low: float, high: float) -> Pass:
+    found = passes(ISS, Sky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
+    return next(p for p in found if low < p.max_altitude < high and p.side.until is None)
+
+
+def _satellites(rig: Rig, tmp_path: Path) -> Satellites:
+    return Satellites(mount=rig.mount, motion=rig.motion, settings=lambda: rig.store.settings,
+                      mount_limits=lambda: None, flip_line_deg=lambda: 0.0, folder=tmp_path)
+
+
+@pytest.mark.parametrize("mode", [MountMode.EQUATORIAL, MountMode.ALTAZ], ids=["equatorial", "altaz"])
+def test_a_low_pass_is_followed_within_an_arcminute_and_a_stop_ends_it(tmp_path: Path, mode: MountMode) -> None:
+    chosen = _pass(5.0, 15.0)
+    # The emulated universe starts 40 s before the pass enters the sky.
+    clock = ScaledClock(1.0, start_utc=chosen.enters - timedelta(seconds=40))
+    with parts_rig(tmp_path, clock=clock, mode=mode) as rig:
+        rig.mount.connect()
+        satellites = _satellites(rig, tmp_path)
+        satellites.add(ISS.text)
+        assert (tmp_path / "satellites.tle").read_text(encoding="utf-8").startswith("ISS (ZARYA)\n1 25544U")
+        followed = satellites.follow(ISS)
+        assert abs((followed.rise - chosen.rise).total_seconds()) < 1.0
+        motion = rig.motion.running()
+        assert motion is not None and motion.kind is MotionKind.FOLLOW
+        assert rig.motion.slewing()
+        # Nothing else may move the mount meanwhile, and the refusal says why.
+        with pytest.raises(InvalidOperation, match="following ISS"):
+            rig.motion.pulse(Direction.NORTH, 500)
+        with pytest.raises(InvalidOperation, match="following ISS"):
+            rig.motion.move_axis(0, 1.0, None)
+        with pytest.raises(InvalidOperation, match="following ISS"):
+            rig.motion.goto(1.0, 10.0)
+        progress = wait_until(lambda: (p := satellites.progress()) is not None and p.acquired is not None and p,
+                              timeout=60.0)
+        acquired_after = (progress.acquired - followed.enters).total_seconds()
+        assert acquired_after < 20.0
+        errors = []
+        end = time.monotonic() + JUDGED_S
+        while time.monotonic() < end:
+            ra, dec = rig.model.position()
+            spot = Sky(rig.settings, None).place(ISS, rig.model.clock.now())
+            errors.append(sky.angular_separation(ra, dec, spot.ra_hours, spot.dec_deg) * 60.0)
+            assert rig.motion.slewing()
+            time.sleep(0.1)
+        rms = math.sqrt(sum(e * e for e in errors) / len(errors))
+        assert rms < 1.0, (rms, max(errors))
+        assert max(errors) < 3.0, errors
+        satellites.stop()
+        assert satellites.progress() is not None and satellites.progress().ended == "stopped"  # type: ignore[union-attr]
+        wait_until(lambda: not rig.motion.slewing(), timeout=15.0)
+        still = rig.model.snapshot()
+        assert still["moves_deg_s"] == [None, None] and still["slew"] is None
