@@ -34,7 +34,7 @@ from typing import Any
 from alpaca_zwo import sky
 from alpaca_zwo.config.settings import SiteSettings
 from alpaca_zwo.telescope.orbits import Tle, parse_tles
-from alpaca_zwo.telescope.passes import Pass, Sky, passes
+from alpaca_zwo.telescope.passes import AllowedSky, Pass, passes
 from benchmarks.client import AlpacaClient
 from benchmarks.procs import start_alpaca_zwo, start_emulator
 from tests.conftest import make_settings
@@ -72,18 +72,18 @@ def _tle(scenario: Scenario) -> Tle:
     return parse_tles((TLE_DIR / scenario.tle_file).read_text(encoding="utf-8"))[0]
 
 
-def _where(scenario: Scenario) -> Sky:
+def _where(scenario: Scenario) -> AllowedSky:
     site = SiteSettings(latitude=scenario.latitude, longitude=scenario.longitude, elevation=50.0)
-    return Sky(make_settings(site=site), None)
+    return AllowedSky(make_settings(site=site), None)
 
 
-def _max_dec(tle: Tle, where: Sky, chosen: Pass) -> float:
+def _max_dec(tle: Tle, where: AllowedSky, chosen: Pass) -> float:
     steps = 60
     return max(where.place(tle, chosen.enters + (chosen.leaves - chosen.enters) * (i / steps)).dec_deg
                for i in range(steps + 1))
 
 
-def _pick(scenario: Scenario, tle: Tle, where: Sky) -> Pass:
+def _pick(scenario: Scenario, tle: Tle, where: AllowedSky) -> Pass:
     found = passes(tle, where, scenario.start, hours=3.0, limit=5)
     if scenario.pick == "high":
         return max(found, key=lambda p: p.max_altitude)
@@ -140,7 +140,7 @@ def fly(scenario: Scenario, run_dir: Path, limit_s: float | None) -> dict[str, A
         emulator.proc.stop()
 
 
-def _measure(scenario: Scenario, tle: Tle, where: Sky, chosen: Pass, emulator: Any, server: Any,
+def _measure(scenario: Scenario, tle: Tle, where: AllowedSky, chosen: Pass, emulator: Any, server: Any,
              client: AlpacaClient, limit_s: float | None) -> dict[str, Any]:
     samples: list[tuple[datetime, float, float]] = []  # emulated UTC, error (arcmin), altitude
     acquired: datetime | None = None

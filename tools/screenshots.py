@@ -12,7 +12,10 @@ files out (as root: ``unshare -m sh -c 'mount -t tmpfs none /tmp && <the tests> 
 DIR/'``), then record them:
 
     scripts/run-tests tests/browser/test_page_handset.py tests/browser/test_page_in_the_dark.py \\
-        tests/browser/test_page_skychart.py tests/browser/test_page_search.py tests/browser/test_page_first_contact.py
+        tests/browser/test_page_skychart.py tests/browser/test_page_search.py \\
+        tests/browser/test_page_first_contact.py tests/browser/test_page_messages.py \\
+        tests/browser/test_page_connect.py tests/browser/test_page_first_site.py tests/browser/test_page_jog.py \\
+        tests/browser/test_page_meridian.py tests/browser/test_page_observatory.py
     python3 -m tools.screenshots collect --from DIR --all   (copies and records; or name the screenshots)
     python3 -m tools.screenshots record NAME...    (a screenshot put in docs/screenshots/ by hand)
     python3 -m tools.screenshots check             (what tests/test_docs.py runs)
@@ -39,6 +42,7 @@ _DARK = "tests/browser/test_page_in_the_dark.py"
 _CHART = "tests/browser/test_page_skychart.py"
 _SEARCH = "tests/browser/test_page_search.py"
 _FIRST = "tests/browser/test_page_first_contact.py"
+_MESSAGES = "tests/browser/test_page_messages.py"
 #: Each screenshot's browser test and the file it writes in /tmp, by the screenshot's name without its size.
 SOURCES = {
     **{f"handset-{view}": (_HANDSET, f"handset-{view}-{{size}}")
@@ -53,6 +57,11 @@ SOURCES = {
     "search-times": (_SEARCH, "search-times-{size}"),
     "page-link-lost": (_FIRST, "first-contact-link-lost-{size}"),
     "page-location": (_FIRST, "first-contact-location-{size}"),
+    "refusal": (_MESSAGES, "refusal-{size}"),
+    "stopped": (_MESSAGES, "stopped-{size}"),
+    **{view: (f"tests/browser/test_page_{module}.py", f"{view}-{{size}}")
+       for view, module in (("connect", "connect"), ("first-site", "first_site"), ("jog", "jog"),
+                            ("meridian", "meridian"), ("observatory", "observatory"))},
 }
 
 

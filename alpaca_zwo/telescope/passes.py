@@ -70,7 +70,7 @@ class Pass:
 
 
 @dataclass(frozen=True)
-class Sky:
+class AllowedSky:
     """What the planning reads: the site and limits (``settings``), the mount's stored altitude limits,
     and the meridian rule in force (``flip_line_deg``, ``sky.flip_line_deg``)."""
 
@@ -169,7 +169,7 @@ def _azimuth_rate(spots: list[Place]) -> float:
     return max(rates, default=0.0)
 
 
-def _plan(tle: Tle, where: Sky, rise: datetime, set_: datetime) -> Pass | None:
+def _plan(tle: Tle, where: AllowedSky, rise: datetime, set_: datetime) -> Pass | None:
     """The pass between ``rise`` and ``set_``, or None when no part of it is allowed."""
     windows = _runs(lambda t: where.allowed(where.place(tle, t)), rise, set_, PASS_STEP_S)
     if not windows:
@@ -182,7 +182,7 @@ def _plan(tle: Tle, where: Sky, rise: datetime, set_: datetime) -> Pass | None:
                 _side_plan(spots, where.flip_line_deg), tuple(windows), _azimuth_rate(spots))
 
 
-def passes(tle: Tle, where: Sky, start: datetime, hours: float = 24.0, limit: int = 10) -> list[Pass]:
+def passes(tle: Tle, where: AllowedSky, start: datetime, hours: float = 24.0, limit: int = 10) -> list[Pass]:
     """The passes of ``tle``'s satellite from ``start`` over the next ``hours`` that have an allowed part,
     at most ``limit``. A pass under way at ``start`` counts from ``start``."""
     end = start + timedelta(hours=hours)

@@ -25,7 +25,7 @@ from ..motion import MotionSupervisor
 from ..motion.kinds import Follow, MotionKind
 from ..mount.operations import Mount
 from .orbits import Tle, parse_tles
-from .passes import Pass, Sky, passes
+from .passes import AllowedSky, Pass, passes
 from .pointing import MountAltitudeLimits
 
 log = logging.getLogger(__name__)
@@ -141,9 +141,9 @@ class Satellites:
 
     # -- passes ------------------------------------------------------------------------------
 
-    def sky(self) -> Sky:
+    def sky(self) -> AllowedSky:
         """The site, the limits and the meridian rule the plans are made under, as they are now."""
-        return Sky(self._settings(), self._mount_limits(), self._flip_line_deg())
+        return AllowedSky(self._settings(), self._mount_limits(), self._flip_line_deg())
 
     def passes(self, tle: Tle, hours: float = 24.0, start: datetime | None = None) -> list[Pass]:
         return passes(tle, self.sky(), start or self._mount.time.now(), hours)
@@ -185,7 +185,7 @@ class Satellites:
         return chosen
 
     @staticmethod
-    def _aim(tle: Tle, where: Sky, chosen: Pass, start: datetime, leaves: datetime) -> datetime:
+    def _aim(tle: Tle, where: AllowedSky, chosen: Pass, start: datetime, leaves: datetime) -> datetime:
         """The first instant from ``start`` the satellite stands ``AIM_ABOVE_DEG`` above where it entered
         (or its highest point, if lower): the mount waits there."""
         floor = where.place(tle, start).altitude + AIM_ABOVE_DEG

@@ -21,7 +21,7 @@ from alpaca_zwo._exceptions import InvalidOperation
 from alpaca_zwo.emulator import ScaledClock
 from alpaca_zwo.motion.kinds import MotionKind
 from alpaca_zwo.telescope.orbits import parse_tles
-from alpaca_zwo.telescope.passes import Pass, Sky, passes
+from alpaca_zwo.telescope.passes import AllowedSky, Pass, passes
 from alpaca_zwo.telescope.satellites import Satellites
 from alpaca_zwo.zwo.wire_values import Direction, MountMode
 from tests.conftest import make_settings
@@ -34,7 +34,7 @@ JUDGED_S = 25.0
 
 
 def _pass(low: float, high: float) -> Pass:
-    found = passes(ISS, Sky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
+    found = passes(ISS, AllowedSky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
     return next(p for p in found if low < p.max_altitude < high and p.side.until is None)
 
 
@@ -73,7 +73,7 @@ def test_a_low_pass_is_followed_within_an_arcminute_and_a_stop_ends_it(tmp_path:
         end = time.monotonic() + JUDGED_S
         while time.monotonic() < end:
             ra, dec = rig.model.position()
-            spot = Sky(rig.settings, None).place(ISS, rig.model.clock.now())
+            spot = AllowedSky(rig.settings, None).place(ISS, rig.model.clock.now())
             errors.append(sky.angular_separation(ra, dec, spot.ra_hours, spot.dec_deg) * 60.0)
             assert rig.motion.slewing()
             time.sleep(0.1)

@@ -20,7 +20,7 @@ from alpaca_zwo import sky
 from alpaca_zwo._exceptions import InvalidValue
 from alpaca_zwo.config.settings import LimitSettings
 from alpaca_zwo.telescope.orbits import STALE_DAYS, parse_tles, place
-from alpaca_zwo.telescope.passes import PASS_STEP_S, Sky, passes
+from alpaca_zwo.telescope.passes import PASS_STEP_S, AllowedSky, passes
 from alpaca_zwo.telescope.pointing import MountAltitudeLimits
 from tests.conftest import make_settings
 from tests.support.sites import EQUATOR, NORTH, SITE_IDS, SITES, SYDNEY, Site
@@ -31,8 +31,8 @@ TS = load.timescale(builtin=True)
 SATELLITE = EarthSatellite(ISS.line1, ISS.line2, ISS.name, TS)
 
 
-def _sky(site: Site, **limits: object) -> Sky:
-    return Sky(make_settings(site=site.settings(), limits=LimitSettings(**limits)), None)  # type: ignore[arg-type]
+def _sky(site: Site, **limits: object) -> AllowedSky:
+    return AllowedSky(make_settings(site=site.settings(), limits=LimitSettings(**limits)), None)  # type: ignore[arg-type]
 
 
 def _altitude(site: Site, when: datetime) -> float:
@@ -129,13 +129,13 @@ def test_a_horizon_profile_and_the_mounts_upper_limit_split_a_pass() -> None:
     has two allowed parts and the plan follows the first."""
     high = max(passes(ISS, _sky(NORTH), ISS.epoch, hours=24.0, limit=50), key=lambda p: p.max_altitude)
     assert high.max_altitude > 80.0
-    capped = Sky(_sky(NORTH).settings, MountAltitudeLimits(lower=0.0, upper=70.0))
+    capped = AllowedSky(_sky(NORTH).settings, MountAltitudeLimits(lower=0.0, upper=70.0))
     (split,) = [p for p in passes(ISS, capped, high.rise - timedelta(minutes=1), hours=0.2) if p.rise == high.rise]
     assert len(split.windows) == 2
     first, second = split.windows
     assert first[1] < high.culmination < second[0]
     assert _altitude(NORTH, first[1]) == pytest.approx(70.0, abs=0.05)
-    walled = Sky(dataclasses.replace(_sky(NORTH).settings,
+    walled = AllowedSky(dataclasses.replace(_sky(NORTH).settings,
                                      limits=LimitSettings(horizon=((0.0, 0.0), (high.enter_place.azimuth, 30.0)))),
                  None)
     (hidden,) = [p for p in passes(ISS, walled, high.rise - timedelta(minutes=1), hours=0.2) if p.rise == high.rise]
