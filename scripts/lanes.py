@@ -14,9 +14,9 @@ about 6 CPU minutes in a 47-minute serial run on two cores), so independent grou
   waiting as the other), carved out of ``tests/conformance`` into a lane of its own beside it, so the
   two halves wait at the same time instead of one after the other.
 - ``firmware``: the ConformU conformance run against the real-transcript firmware preset ``am5-1.8.8``
-  (issue 39 item 4: north and at Sydney, equatorial and alt-az; about 30 minutes: 9 per equatorial run, 6 per alt-az one), carved out the same
-  way into a lane of its own: the same waiting on emulated time, overlapped with the other two ConformU
-  lanes.
+  (issue 39 item 4: north and at Sydney, equatorial and alt-az; about 30 minutes, 9 per equatorial run
+  and 6 per alt-az one), carved out the same way into a lane of its own: the same waiting on emulated
+  time, overlapped with the other two ConformU lanes.
 - ``platform``: the system tests (fresh Debian roots, the container image, wheels, the start-at-boot unit):
   they wait on dpkg, pip and podman, never time the server and have minutes of slack, so they run in
   the background at a lower CPU and disk priority.
