@@ -49,6 +49,10 @@ within 10° of the equator, as the real one does. Its extended pulse-guide test 
 equator at all (see ``conformu_settings``): that run has it switched off, as a user there must. The
 protocol run checks HTTP, not the sky, and is made at one site.
 
+Which firmware (issue 39 item 4): these runs emulate the default firmware preset; the same conformance
+runs against the mount as real 1.8.8 firmware was recorded answering (``am5-1.8.8``) are in
+tests/conformance/test_conformu_presets.py, a CI lane of its own.
+
 The printed log lists every check like ConformU's report; the counts line is also added to pytest's
 terminal summary (tests/conformance/conftest.py).
 
