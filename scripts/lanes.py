@@ -1,4 +1,4 @@
-"""The lanes of a whole-suite run (scripts/run-tests with no test paths): five pytest processes side by side.
+"""The lanes of a whole-suite run (scripts/run-tests with no test paths): six pytest processes side by side.
 
 The suite waits far more than it computes (emulated slews, real-time pulses, ConformU's timed checks:
 about 6 CPU minutes in a 47-minute serial run on two cores), so independent groups overlap well:
@@ -13,13 +13,17 @@ about 6 CPU minutes in a 47-minute serial run on two cores), so independent grou
 - ``sites``: the ConformU conformance run at Sydney and on the equator (issue 30; about 20 minutes,
   waiting as the other), carved out of ``tests/conformance`` into a lane of its own beside it, so the
   two halves wait at the same time instead of one after the other.
+- ``firmware``: the ConformU conformance run against the real-transcript firmware preset ``am5-1.8.8``
+  (issue 39 item 4: north and at Sydney, equatorial and alt-az; about 30 minutes, 9 per equatorial run
+  and 6 per alt-az one), carved out the same way into a lane of its own: the same waiting on emulated
+  time, overlapped with the other two ConformU lanes.
 - ``platform``: the system tests (fresh Debian roots, the container image, wheels, the start-at-boot unit):
   they wait on dpkg, pip and podman, never time the server and have minutes of slack, so they run in
   the background at a lower CPU and disk priority.
 
 ``tests/test_ci_lanes.py`` checks that the lanes together collect exactly the whole suite, each test once.
 
-    python3 scripts/lanes.py main|field|conformance|sites|platform    # one pytest argument per line, for run-tests
+    python3 scripts/lanes.py main|field|conformance|sites|firmware|platform   # one pytest argument per line
     python3 scripts/lanes.py --background                           # the lanes run beside main, one a line
 """
 
@@ -33,6 +37,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: then ignores it); ``main`` takes every other entry.
 SEPARATE = {"field": ("tests/motion", "tests/faults"), "conformance": ("tests/conformance",),
             "sites": ("tests/conformance/test_conformu_sites.py",),
+            "firmware": ("tests/conformance/test_conformu_presets.py",),
             "platform": ("tests/platform",)}
 LANES = ("main", *SEPARATE)
 

@@ -43,8 +43,10 @@ def test_the_lanes_collect_the_whole_suite_each_test_once() -> None:
 def test_the_background_lanes_hold_the_nights_conformance_and_the_system_tests() -> None:
     lanes = _lanes()
     assert lanes["field"] == ["tests/motion", "tests/faults"]
-    assert lanes["conformance"] == ["tests/conformance", "--ignore=tests/conformance/test_conformu_sites.py"]
+    assert lanes["conformance"] == ["tests/conformance", "--ignore=tests/conformance/test_conformu_presets.py",
+                                    "--ignore=tests/conformance/test_conformu_sites.py"]
     assert lanes["sites"] == ["tests/conformance/test_conformu_sites.py"]
+    assert lanes["firmware"] == ["tests/conformance/test_conformu_presets.py"]
     assert lanes["platform"] == ["tests/platform"]
     elsewhere = {"tests/conformance", "tests/platform", "tests/motion", "tests/faults"}
     assert not elsewhere & set(lanes["main"])

@@ -49,6 +49,10 @@ within 10° of the equator, as the real one does. Its extended pulse-guide test 
 equator at all (see ``conformu_settings``): that run has it switched off, as a user there must. The
 protocol run checks HTTP, not the sky, and is made at one site.
 
+Which firmware (issue 39 item 4): these runs emulate the default firmware preset; the same conformance
+runs against the mount as real 1.8.8 firmware was recorded answering (``am5-1.8.8``) are in
+tests/conformance/test_conformu_presets.py, a CI lane of its own.
+
 The printed log lists every check like ConformU's report; the counts line is also added to pytest's
 terminal summary (tests/conformance/conftest.py).
 
@@ -71,6 +75,7 @@ from alpaca import telescope as alpaca_telescope
 
 from alpaca_zwo.config.settings import EmulatorSettings, SafetySettings, ServerSettings
 from alpaca_zwo.server import AlpacaZwoServer
+from alpaca_zwo.zwo.firmware import DEFAULT_PRESET
 from tests.conformance.ascom import AlpacaTelescope, AlpycaTelescope, EmulatedClock
 from tests.conformance.conformu_base import Timing
 from tests.conformance.conformu_protocol import ProtocolTester
@@ -100,10 +105,10 @@ def safety_monitor(tmp_path_factory: pytest.TempPathFactory) -> Iterator[AlpacaS
 
 
 def _start(server_factory: ServerFactory, mode: str = "eq", monitor: AlpacaSimulators | None = None,
-           **sections: object) -> AlpacaZwoServer:
+           preset: str = DEFAULT_PRESET, **sections: object) -> AlpacaZwoServer:
     if monitor is not None:  # the observatory's safe monitor, polled at the default interval
         sections["safety"] = SafetySettings(monitor=monitor.monitor_url)
-    settings = make_settings(emulator=EmulatorSettings(speed=SPEED, baud=BAUD, mode=mode), **sections)
+    settings = make_settings(emulator=EmulatorSettings(speed=SPEED, baud=BAUD, mode=mode, preset=preset), **sections)
     server = server_factory(settings)
     if monitor is not None:
         wait_until(lambda: server.interlock.verdict.state.value == "safe", 10, "the safety monitor's first answer")
@@ -148,16 +153,18 @@ def _site_as_nina_writes_it(server: AlpacaZwoServer, site: Site) -> None:
 
 
 def run_conformance(server_factory: ServerFactory, mode: str, site: Site,
-                    monitor: AlpacaSimulators | None = None) -> None:
-    """One ConformU conformance run at ``site`` with the mount in ``mode``: 0 errors, 0 issues (and, with
-    ``monitor``, the safe SafetyMonitor answering and the interlock open all along)."""
-    server = _start(server_factory, mode, monitor)
+                    monitor: AlpacaSimulators | None = None, preset: str = DEFAULT_PRESET) -> None:
+    """One ConformU conformance run at ``site`` with the mount in ``mode``, emulated as firmware ``preset``:
+    0 errors, 0 issues (and, with ``monitor``, the safe SafetyMonitor answering and the interlock open all
+    along)."""
+    server = _start(server_factory, mode, monitor, preset)
     if site is not NORTH:
         _site_as_nina_writes_it(server, site)
     clock = EmulatedClock(server.emulators[0].clock)
     client = AlpacaTelescope("127.0.0.1", server.port, 0, clock)
     alpyca = AlpycaTelescope("127.0.0.1", server.port, 0)
-    suite = f"conformance ({mode})" if site is NORTH else f"conformance ({mode}, {site.name})"
+    where = [mode] + ([] if site is NORTH else [site.name]) + ([] if preset == DEFAULT_PRESET else [preset])
+    suite = f"conformance ({', '.join(where)})"
     report = Report(suite)
     tester = TelescopeTester(client, alpyca, clock, report, conformu_settings(site))
     try:
