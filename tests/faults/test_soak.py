@@ -227,6 +227,11 @@ def test_simulated_night(rig_factory: RigFactory, preset: str) -> None:
     """The night on the default firmware and on the mount as real 1.8.8 firmware was recorded answering
     (docs/firmware-evidence.md: late ``:Te#`` acknowledgements while slewing, home at HA +6 h), issue 39."""
     rig = rig_factory(emulator=EmulatorSettings(speed=SPEED, baud=0, preset=preset))
+    # The planetarium's syncs are a fixed made-up offset on both pier sides, not a perfect mount's errors:
+    # the pointing model (docs/pointing-model.md) would fit terms to them and rightly read the sky away
+    # from the mount's own reading as HA moves. This night judges that the server reads what the mount
+    # reads under many clients; the model is judged against an imperfect mount in tests/mount.
+    rig.clients[0].command("action", Action="zwo:PointingModel", Parameters='{"enabled": false}')
     verdict = Verdict(f"simulated night on {preset} ({SOAK_S:.0f} s at {SPEED:g}x)")
     log = CallLog(keep=False, allowed_errors=EXPECTED_ERRORS)
     night = Night(rig, log)
