@@ -141,11 +141,17 @@ def test_a_point_near_another_replaces_it() -> None:
     assert len(model.points) == 6 and model.points[-1] == near and points[2] not in model.points
 
 
-def test_a_gross_point_is_refused_with_the_reason_and_does_not_spoil_the_model() -> None:
+def _ten_realistic_points() -> tuple[list[ModelPoint], PointingModel]:
+    """The realistic error set's synthetic points at 52° N, and a model fitted to the first ten of them."""
     points = synthetic(REALISTIC, 52.0, False, 3.0)
     model = PointingModel(52.0)
     for point in points[:10]:
         model.add(point)
+    return points, model
+
+
+def test_a_gross_point_is_refused_with_the_reason_and_does_not_spoil_the_model() -> None:
+    points, model = _ten_realistic_points()
     before = model.solution
     wrong = ModelPoint(points[11].mech, Place(points[11].true.lon + 2.0, points[11].true.lat - 1.0, -1))
     verdict = model.add(wrong)
@@ -201,10 +207,7 @@ def test_another_site_or_mode_starts_an_empty_model_and_the_file_keeps_it(tmp_pa
 
 def test_two_refused_syncs_that_agree_restart_the_model() -> None:
     """A clutch slip moves every later sync alike: the second such sync restarts the model from both."""
-    points = synthetic(REALISTIC, 52.0, False, 3.0)
-    model = PointingModel(52.0)
-    for point in points[:10]:
-        model.add(point)
+    points, model = _ten_realistic_points()
     slipped = [ModelPoint(p.mech, Place(p.true.lon + 1.0, p.true.lat, p.true.side)) for p in points[10:12]]
     assert not model.add(slipped[0]).accepted
     verdict = model.add(slipped[1])
@@ -213,10 +216,7 @@ def test_two_refused_syncs_that_agree_restart_the_model() -> None:
 
 
 def test_two_wrong_solves_in_a_row_that_disagree_leave_the_model_alone() -> None:
-    points = synthetic(REALISTIC, 52.0, False, 3.0)
-    model = PointingModel(52.0)
-    for point in points[:10]:
-        model.add(point)
+    points, model = _ten_realistic_points()
     before = model.solution
     first, second = points[10], points[11]
     assert not model.add(ModelPoint(first.mech, Place(first.true.lon + 1.0, first.true.lat, -1))).accepted
