@@ -140,7 +140,7 @@ def parse_tles(text: str) -> list[Tle]:
 
 
 @dataclass(frozen=True)
-class Place:
+class SatellitePlace:
     """Where a satellite stands for the site at one instant, in the mount's frame (module docstring)."""
 
     when: datetime
@@ -164,7 +164,7 @@ def _site_teme(latitude: float, longitude: float, elevation_m: float, gmst_hours
     return rho * math.cos(theta), rho * math.sin(theta), z
 
 
-def place(tle: Tle, latitude: float, longitude: float, elevation_m: float, when: datetime) -> Place:
+def place(tle: Tle, latitude: float, longitude: float, elevation_m: float, when: datetime) -> SatellitePlace:
     """Where ``tle``'s satellite stands for the site at ``when`` (aware or naive UTC)."""
     utc = when if when.tzinfo is not None else when.replace(tzinfo=timezone.utc)
     utc = utc.astimezone(timezone.utc)
@@ -181,4 +181,4 @@ def place(tle: Tle, latitude: float, longitude: float, elevation_m: float, when:
     dec = math.degrees(math.asin(dz / distance))
     ha = sky.hour_angle(sky.wrap_hours_24(gmst + longitude / 15.0), ra)
     altitude, azimuth = sky.equatorial_to_horizontal(ha, dec, latitude)
-    return Place(utc, ra, dec, ha, altitude, azimuth, distance)
+    return SatellitePlace(utc, ra, dec, ha, altitude, azimuth, distance)

@@ -22,7 +22,7 @@ from datetime import datetime, timedelta
 
 from .. import sky
 from ..config.settings import Settings
-from .orbits import Place, Tle, place
+from .orbits import SatellitePlace, Tle, place
 from .pointing import MountAltitudeLimits, goto_blocked
 
 #: The coarse step of the search for rises (a pass of the ISS lasts minutes; a grazing one a minute).
@@ -58,7 +58,7 @@ class Pass:
     max_altitude: float
     enters: datetime
     leaves: datetime
-    enter_place: Place
+    enter_place: SatellitePlace
     side: SidePlan
     windows: tuple[tuple[datetime, datetime], ...]  # every allowed part, in order
     max_azimuth_rate: float  # deg/s over the followed part: an alt-az mount's azimuth axis must turn this fast
@@ -78,11 +78,11 @@ class AllowedSky:
     mount_limits: MountAltitudeLimits | None
     flip_line_deg: float = 0.0
 
-    def place(self, tle: Tle, when: datetime) -> Place:
+    def place(self, tle: Tle, when: datetime) -> SatellitePlace:
         site = self.settings.site
         return place(tle, site.latitude, site.longitude, site.elevation, when)
 
-    def allowed(self, spot: Place) -> bool:
+    def allowed(self, spot: SatellitePlace) -> bool:
         """The one GoTo limit check at the satellite's place (``pointing.goto_blocked``)."""
         lst = spot.ra_hours + spot.ha_hours
         return goto_blocked(self.settings, self.mount_limits, lst, spot.ra_hours, spot.dec_deg) is None
@@ -136,7 +136,7 @@ def _highest(altitude: Callable[[datetime], float], start: datetime, end: dateti
     return a + (b - a) / 2
 
 
-def _side_plan(spots: list[Place], flip_line_deg: float) -> SidePlan:
+def _side_plan(spots: list[SatellitePlace], flip_line_deg: float) -> SidePlan:
     """The side that follows the most of the allowed part from its start (module docstring).
 
     pierWest (looking east) reaches hour angles from -12 h up to the flip line; pierEast from
@@ -163,7 +163,7 @@ def _side_plan(spots: list[Place], flip_line_deg: float) -> SidePlan:
     return SidePlan(best, spots[reached].when, why)
 
 
-def _azimuth_rate(spots: list[Place]) -> float:
+def _azimuth_rate(spots: list[SatellitePlace]) -> float:
     rates = [abs(sky.wrap_hours_12((b.azimuth - a.azimuth) / 15.0) * 15.0) / (b.when - a.when).total_seconds()
              for a, b in itertools.pairwise(spots) if b.when > a.when]
     return max(rates, default=0.0)
