@@ -69,14 +69,17 @@ def fold(text: str) -> str:
 
 
 @functools.lru_cache(maxsize=1)
+def constellation_table() -> tuple[tuple[str, str, str], ...]:
+    """The 88 as the IAU lists them: (abbreviation, name, genitive), e.g. ("Cru", "Crux", "Crucis")."""
+    rows = [line.split(",") for line in data_text("constellations.csv").splitlines()
+            if line[:1].isupper() and not line.startswith("abbr,")]
+    return tuple((abbr, name, genitive) for abbr, name, genitive in rows)
+
+
+@functools.lru_cache(maxsize=1)
 def _constellations() -> tuple[dict[str, str], re.Pattern[str]]:
     """Folded genitive -> folded abbreviation, and one pattern finding any genitive as whole words."""
-    genitives: dict[str, str] = {}
-    table = data_text("constellations.csv")
-    for line in table.splitlines():
-        if line[:1].isupper() and not line.startswith("abbr,"):
-            abbr, _name, genitive = line.split(",")
-            genitives[fold(genitive)] = fold(abbr)
+    genitives = {fold(genitive): fold(abbr) for abbr, _name, genitive in constellation_table()}
     words = sorted(genitives, key=len, reverse=True)  # "canis majoris" before any shorter overlap
     return genitives, re.compile(r"\b(" + "|".join(re.escape(w) for w in words) + r")\b")
 

@@ -29,7 +29,7 @@ from datetime import datetime, timedelta, timezone, tzinfo
 from typing import Any
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-from . import coordinates, data_text, deepsky
+from . import constellations, coordinates, data_text, deepsky
 from .naming import (
     GREEK,
     GREEK_ABBREV,
@@ -306,9 +306,15 @@ def _names_found(text: str, limit: int) -> Found:
     first: dict[str, tuple[SkyObject, str | None]] = {}
     for obj, how in exact + prefix + words:
         first.setdefault(obj.id, (obj, how))
-    matches = tuple(first.values())[:limit]
+    objects_found = tuple(first.values())
+    figure = constellations.by_key(key) if key else None
+    # A constellation comes after the objects a name also begins ("Andromeda" is first the galaxy) and
+    # does not make Enter's choice doubtful; named alone ("Crux", "Southern Cross") it is the one meant.
+    extra = ((figure[0], None if figure[1] == figure[0].name else figure[1]),) if figure else ()
+    matches = (objects_found + extra)[:limit]
     distinct_exact = {obj.id for obj, _ in exact}
-    confident = len(distinct_exact) == 1 or (not exact and len(matches) == 1 and len(key) >= 3)
+    confident = (len(distinct_exact) == 1 or (not exact and len(objects_found) == 1 and len(key) >= 3)
+                 or (not objects_found and figure is not None))
     return Found(matches, confident, _note(text, key, matches, confident))
 
 
@@ -373,6 +379,8 @@ def _by_id(kind: str, rest: str) -> SkyObject | None:
         return _star_index().by_key[fold(rest)]
     if kind == "hip" and rest.isdigit() and len(rest) <= 6:
         return _star_index().by_hip.get(int(rest))
+    if kind == "con" and rest.isalpha() and len(rest) <= 3:
+        return constellations.by_abbreviation(rest)
     if kind == "dso" and re.fullmatch(r"[A-Za-z0-9 +_.-]{1,40}", rest):
         return deepsky.by_name(rest)
     m = re.fullmatch(r"(\d{1,2}(?:\.\d+)?),([+-]?\d{1,2}(?:\.\d+)?)", rest) if kind == "radec" else None

@@ -26,6 +26,7 @@ from alpaca_zwo.catalogue.objects import (
     LUNAR,
     SIDEREAL,
     SOLAR,
+    ObjectError,
     QueryError,
     Site,
     apparent,
@@ -197,6 +198,9 @@ def test_tracking_rates_follow_the_object() -> None:
     ("gamma Cas", "hip:4427", "γ Cas"), ("γ Cas", "hip:4427", None), ("B33", "dso:B033", "Horsehead Nebula"),
     ("Barnard 33", "dso:B033", None), ("Cr 399", "dso:Cl399", None), ("Mel 111", "dso:Mel111", None),
     ("PGC 17223", "dso:ESO056-115", None), ("Witch Head Nebula", "dso:NGC1909", None),
+    # issue 43 point 8: constellations, by the IAU's name, its abbreviation and a popular name
+    ("Crux", "con:Cru", "Crux"), ("Southern Cross", "con:Cru", "Crux"), ("Lyra", "con:Lyr", "Lyra"),
+    ("Ursa Major", "con:UMa", "Ursa Major"), ("Great Bear", "con:UMa", "Ursa Major"),
 ])
 def test_names_and_numbers_people_type(query: str, object_id: str, title: str | None) -> None:
     found = find(query)
@@ -376,3 +380,21 @@ def test_altaz_and_rise_transit_set() -> None:
     alt, az, _ = observer.at(TS.from_datetime(WHEN)).observe(EPH["mars barycenter"]).apparent().altaz()
     assert mars.altitude == pytest.approx(alt.degrees, abs=0.01)
     assert mars.azimuth == pytest.approx(az.degrees, abs=0.01)
+
+
+def test_a_constellation_points_at_the_middle_of_its_figure() -> None:
+    """Crux is pointed between its four stars, and a name that begins a famous object keeps that object
+    first (issue 33: "Andromeda" is the galaxy) with the constellation offered after it."""
+    crux = lookup("con:Cru")
+    acrux, gacrux = lookup("Acrux"), lookup("Gacrux")
+    assert crux.kind == "constellation" and crux.ra_hours is not None and crux.dec_deg is not None
+    assert acrux.ra_hours is not None and acrux.dec_deg is not None
+    assert gacrux.ra_hours is not None and gacrux.dec_deg is not None
+    middle = ((acrux.ra_hours + gacrux.ra_hours) / 2.0, (acrux.dec_deg + gacrux.dec_deg) / 2.0)
+    assert abs(crux.ra_hours - middle[0]) * 15.0 * math.cos(math.radians(middle[1])) < 2.0
+    assert abs(crux.dec_deg - middle[1]) < 2.0
+    found = find("Andromeda")
+    assert [obj.id for obj in found.objects][:2] == ["dso:NGC0224", "con:And"] and found.confident
+    assert find("Southern Cross").matches[0][1] == "Southern Cross"  # shown by the name it was found by
+    with pytest.raises(ObjectError):
+        lookup("con:Xyz")  # no such constellation: said, not guessed
