@@ -115,7 +115,7 @@
   }
 
   function keepInLog(text, level) {
-    post("/setup/api/log", { text, level }).catch(() => { /* the server is unreachable: the message says so */ });
+    post("/setup/api/log", { text, level: level === "error" ? "error" : "info" }).catch(() => { /* the server is unreachable: the message says so */ });
   }
 
   // A control's failure said as what did not happen ("Horizon saved." → "Horizon not saved"); the reason follows.

@@ -121,7 +121,7 @@
     try {
       model = await hook.post(url, body);
       render();
-      hook.message(body.clear ? "Pointing model cleared" : "Pointing model " + (model.enabled ? "on" : "off"), "ok");
+      hook.message(body.clear ? "Pointing model cleared." : "Pointing model " + (model.enabled ? "on." : "off."), "info");
     } catch (err) {
       hook.message("Pointing model: " + err.message);
       refresh();
