@@ -249,10 +249,10 @@
     for (const label of labels) {
       const text = el("text", { x: 0, y: 0, class: label.cls }, label.parent || group);
       text.textContent = label.text;
-      let w = 0, h = 0, base = 0;
+      let w = 0, h = 0, base = 0, lead = 0; // lead: the box can start left of x (a J's hook in some fonts)
       try {
         const bb = text.getBBox();
-        w = bb.width; h = bb.height; base = -bb.y;
+        w = bb.width; h = bb.height; base = -bb.y; lead = -bb.x;
       } catch (_) { /* not rendered */ }
       if (!w) { w = label.text.length * 3.1; h = 6.5; base = 5; }
       const own = keep.find((k) => Math.abs((k.x0 + k.x1) / 2 - label.x) < 0.01 && Math.abs((k.y0 + k.y1) / 2 - label.y) < 0.01);
@@ -275,7 +275,7 @@
       }
       taken.push(spot);
       const dx = label.parent ? label.x : 0, dy = label.parent ? label.y : 0; // bodies' labels sit in their group
-      text.setAttribute("x", (spot.x0 - dx).toFixed(2));
+      text.setAttribute("x", (spot.x0 + lead - dx).toFixed(2));
       text.setAttribute("y", (spot.y0 + base - dy).toFixed(2));
     }
     group.dataset.dropped = String(dropped);
