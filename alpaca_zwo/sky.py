@@ -10,13 +10,18 @@ Conventions (ASCOM's, not the ZWO protocol's):
 - azimuth is measured from north through east, in [0, 360);
 - UT1 is taken equal to UTC and TT = UTC + 69.184 s. The error this makes (|UT1-UTC| < 0.9 s) is
   far below the mount's one-second RA resolution, and nothing here needs leap-second tables.
+
+The one exception to "math": ``zone_at``, the civil time zone of a place (tzfpy and the zone database),
+here because the mount layer sets the mount's clock in it and the catalogue shows times in it.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from datetime import datetime, timedelta, timezone
 from enum import IntEnum
+from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 __all__ = [
     "J2000_JD",
@@ -46,6 +51,7 @@ __all__ = [
     "wrap_degrees_360",
     "wrap_hours_12",
     "wrap_hours_24",
+    "zone_at",
 ]
 
 J2000_JD = 2451545.0
@@ -370,3 +376,20 @@ def kept_goto_side(target_ha_hours: float, current_side: PierSide, meridian_limi
             and wrap_hours_12(target_ha_hours) >= 0.0:
         return PierSide.EAST
     return side
+
+
+@functools.lru_cache(maxsize=64)
+def zone_at(latitude: float, longitude: float) -> ZoneInfo | None:
+    """The zone in force at a place, with its daylight saving rules: the name tzfpy (offline, the timezone
+    boundary builder's polygons) gives the coordinates, read from the IANA database by zoneinfo (the tzdata
+    package on Windows). At sea tzfpy answers the nautical zone (``Etc/GMT+9``). None where tzfpy is not
+    installed (32-bit ARM: no wheel) or knows no zone there: callers then say what stands in."""
+    try:
+        from tzfpy import get_tz
+    except ModuleNotFoundError:
+        return None
+    name = get_tz(longitude, latitude)
+    try:
+        return ZoneInfo(name) if name else None
+    except (ZoneInfoNotFoundError, ValueError):  # a name this Python's zone database lacks
+        return None

@@ -109,19 +109,15 @@ class Session:
     moved_axes: set[int] = field(default_factory=set)  # axes this program set moving
 
 
-def _host_utc_offset_hours() -> float:
-    """The zone the Mount pushes at connect (the host's), so ``:GG#`` starts out as the mount's."""
-    offset = datetime.now().astimezone().utcoffset()
-    return offset.total_seconds() / 3600.0 if offset is not None else 0.0
-
-
 class SharedZone:
     """The time zone the port's programs see and set (``:SG#``, ``:SMTI#``, ``:GG#``): it only changes how
-    the port reads and shows local times; the mount keeps the zone the server pushed."""
+    the port reads and shows local times; the mount keeps the zone the server pushed. ``hours`` is None
+    until a program sets one: the port then shows the zone the server sets the mount's clock in (the
+    site's, ``Mount.clock_zone``), so ``:GG#`` and ``:GL#`` start out as the mount's own."""
 
     def __init__(self) -> None:
         self.lock = threading.Lock()
-        self.hours = _host_utc_offset_hours()
+        self.hours: float | None = None
 
     def set(self, hours: float) -> None:
         with self.lock:
@@ -166,10 +162,13 @@ class TelescopeBackend:
     # -- date, time, site ------------------------------------------------------------------------
 
     def clock(self) -> datetime:
-        return self.telescope.clock.utc_now() + timedelta(hours=self.zone.hours)
+        return self.telescope.clock.utc_now() + timedelta(hours=self.utc_offset())
 
     def utc_offset(self) -> float:
-        return self.zone.hours
+        hours = self.zone.hours
+        if hours is None:
+            return self.telescope.mount.clock_zone(self.telescope.clock.utc_now()).total_seconds() / 3600.0
+        return hours
 
     def set_clock(self, day: date | None, clock: time | None, utc_offset: float | None) -> bool:
         """:SC/:SL set the server's clock (the Telescope's UTCDate, pushed to the mount); :SG only the
@@ -183,7 +182,7 @@ class TelescopeBackend:
                                                 local.time() if clock is None else clock))
 
     def _set_local(self, local: datetime) -> bool:
-        utc = (local - timedelta(hours=self.zone.hours)).replace(tzinfo=timezone.utc)
+        utc = (local - timedelta(hours=self.utc_offset())).replace(tzinfo=timezone.utc)
         if abs((utc - self.telescope.clock.utc_now()).total_seconds()) < TIME_TOLERANCE_S:
             return True
         try:

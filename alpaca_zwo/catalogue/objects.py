@@ -27,8 +27,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone, tzinfo
 from typing import Any
-from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
+from ..sky import zone_at
 from . import constellations, coordinates, data_text, deepsky
 from .naming import (
     GREEK,
@@ -417,22 +417,6 @@ class SiteZone:
 
 
 SERVER_ZONE_SLACK_H = 3.0  # zones reach this far from their longitude's (China's +8 at 75° E: 3 h)
-
-
-@functools.lru_cache(maxsize=64)
-def zone_at(latitude: float, longitude: float) -> ZoneInfo | None:
-    """The zone in force at a place, with its daylight saving rules: the name tzfpy (offline, the timezone
-    boundary builder's polygons) gives the coordinates, read from the IANA database by zoneinfo (the tzdata
-    package on Windows). None where tzfpy is not installed (32-bit ARM: no wheel) or knows no zone there."""
-    try:
-        from tzfpy import get_tz
-    except ModuleNotFoundError:
-        return None
-    name = get_tz(longitude, latitude)
-    try:
-        return ZoneInfo(name) if name else None
-    except (ZoneInfoNotFoundError, ValueError):  # a name this Python's zone database lacks
-        return None
 
 
 def site_zone(longitude: float, when: datetime, server_zone: tzinfo | None = None,

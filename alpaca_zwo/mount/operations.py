@@ -91,7 +91,7 @@ class Mount:
         self._clock_rate = clock_rate  # mount seconds per real second (a fast emulator: its speed)
         self._site = site
         self.clock = clock
-        self._utc_offset = utc_offset or _host_utc_offset
+        self._utc_offset = utc_offset  # a fixed zone (tests); None: the site's (clock_zone)
         self.poll_fast_s = poll_fast_s
         self.poll_slow_s = poll_slow_s
         self._state = MountState(time=monotonic(), link=link.status)
@@ -334,19 +334,28 @@ class Mount:
                 self._dec_sense.cancel()
 
     def push_time(self) -> None:
-        """Set the mount's clock to the host's, with the zone sign the mount expects (negated).
+        """Set the mount's clock: the site's local date and time, and its zone with the sign the mount
+        expects (negated), so the mount, its hand controller and ZWO's apps show the site's time while
+        the mount's UTC (local minus zone) is exact, whatever zone the host is on (``clock_zone``).
 
         The mount keeps whole seconds and sets its clock when the ``:SL`` command has arrived, so
         that command is timed to *arrive* on a second boundary (its bytes take 12.5 ms at 9600
         baud), carrying that second: otherwise its sidereal time, and every Alt/Az landing with it,
         would be off by the fraction of a second the command was late.
         """
-        offset = self._utc_offset()
-        self._exec(protocol.set_utc_offset(offset.total_seconds() / 3600.0))
+        # A mount whose daylight-saving flag is on counts UTC = local - (zone + 1 h): its zone is then sent
+        # an hour less, so the total stays the site's offset (the flag is the user's; it is left alone).
+        dst = timedelta(hours=1) if self._try(protocol.query("GH")) is True else timedelta(0)
+        offset = self.clock_zone(self.time.now(), say=True)
+        self._exec(protocol.set_utc_offset((offset - dst).total_seconds() / 3600.0))
         transit_real = len(protocol.set_time(datetime.min.time()).wire) * 10.0 / self.link.baud \
             if self.link.baud else 0.0
         now = self.time.now()
         boundary = now.replace(microsecond=0) + timedelta(seconds=1)
+        if self.clock_zone(boundary) != offset:  # daylight saving began or ended in this very second
+            offset = self.clock_zone(boundary)
+            self._exec(protocol.set_utc_offset((offset - dst).total_seconds() / 3600.0))
+            now = self.time.now()
         wait_real = (boundary - now).total_seconds() / self._clock_rate - transit_real
         while wait_real < 0.0:  # too close: a fast emulator's second can be shorter than the transit
             boundary += timedelta(seconds=1)
@@ -356,6 +365,27 @@ class Mount:
         self.link.execute(protocol.set_time(local.time()), Priority.COMMAND)
         self._exec(protocol.set_date(local.date()))
         self._reread_position()  # a new clock moves every RA reading by an amount only the mount knows
+
+    def clock_zone(self, when: datetime, say: bool = False) -> timedelta:
+        """The UTC offset the mount's clock is set in at ``when``: the site's zone's, daylight saving
+        included (``sky.zone_at`` on the site the server holds now, so a new site's zone applies at the
+        next setting); the host's where the site's zone is not known (tzfpy not installed), which ``say``
+        logs, with the zone used either way."""
+        if self._utc_offset is not None:
+            return self._utc_offset()
+        latitude, longitude = self._site()
+        zone = sky.zone_at(latitude, longitude)
+        if zone is not None:
+            offset = when.astimezone(zone).utcoffset() or timedelta(0)
+            if say:
+                log.info("the mount's clock is set in the site's zone, %s (%s)", zone.key, _offset_text(offset))
+            return offset
+        offset = when.astimezone().utcoffset() or timedelta(0)
+        if say:
+            log.warning("the site's time zone is not known at %.4f, %.4f (tzfpy is not installed or knows no "
+                        "zone there): the mount's clock is set in the host's zone, %s", latitude, longitude,
+                        _offset_text(offset))
+        return offset
 
     def _settle_clock(self, clock_lost: bool) -> None:
         """Set the mount's clock, or keep it and adopt its time (``timekeeping.py`` decides why)."""
@@ -1062,6 +1092,8 @@ def _close(a: tuple[float, float], b: tuple[float, float]) -> bool:
     return dra_hours <= 1.5 / 3600.0 and abs(a[1] - b[1]) <= 1.5 / 3600.0
 
 
-def _host_utc_offset() -> timedelta:
-    offset = datetime.now().astimezone().utcoffset()
-    return offset if offset is not None else timedelta(0)
+def _offset_text(offset: timedelta) -> str:
+    """"UTC+11:00", "UTC-03:30": the offset as the log names it."""
+    minutes = round(offset.total_seconds() / 60.0)
+    sign = "+" if minutes >= 0 else "-"
+    return f"UTC{sign}{abs(minutes) // 60:02d}:{abs(minutes) % 60:02d}"

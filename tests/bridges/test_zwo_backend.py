@@ -13,7 +13,9 @@ import dataclasses
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+from datetime import timedelta
 from pathlib import Path
+from zoneinfo import ZoneInfo
 
 import pytest
 
@@ -29,10 +31,10 @@ from alpaca_zwo.telescope.device import Telescope
 from alpaca_zwo.zwo import dispatch
 from alpaca_zwo.zwo.dispatch import Refusal
 from alpaca_zwo.zwo.link import Link
-from alpaca_zwo.zwo.wire_values import format_dms, format_hms
+from alpaca_zwo.zwo.wire_values import format_dms, format_hms, format_utc_offset, parse_hms
 from tests.conftest import make_settings
 from tests.support import wait_until
-from tests.support.sites import NORTH, SITE_IDS, SITES, Site
+from tests.support.sites import NORTH, SITE_IDS, SITES, SYDNEY, Site
 
 SPEED = 10.0  # emulated seconds per real second
 
@@ -231,6 +233,20 @@ def test_the_goto_refusal_code_is_the_one_limit_checks_verdict(rig: Rig) -> None
                                                                                   min_altitude_deg=40.0)))
     assert _goto_reply(rig, backend, 35.0) == "e6#"  # under the server's minimum altitude
     assert asked(rig, "MS") == 0
+
+
+@pytest.mark.parametrize("rig", [SYDNEY], indirect=True, ids=["sydney"])
+def test_the_ports_zone_starts_as_the_mounts_the_sites(rig: Rig) -> None:
+    """Until a program sets a zone, :GG#/:GL# are the mount's own, set in the site's zone (issue 43 point 3),
+    not the host's: ASIAIR or INDI on the port shows Sydney's time on a Pi left on UTC."""
+    backend = rig.backend()
+    site_hours = (rig.model.clock.now().astimezone(ZoneInfo("Australia/Sydney")).utcoffset() or timedelta(0))
+    assert rig.model.clock_site.utc_offset() == site_hours.total_seconds() / 3600.0
+    assert dispatch.answer(backend, "GG") == format_utc_offset(rig.model.clock_site.utc_offset()) + "#"
+    port_hours = parse_hms(dispatch.answer(backend, "GL")[:-1])
+    local = rig.model.clock_site.local_datetime()
+    mount_hours = local.hour + local.minute / 60.0 + local.second / 3600.0
+    assert abs(sky.wrap_hours_12(port_hours - mount_hours)) * 3600.0 < 5 * SPEED  # emulated seconds
 
 
 def test_the_zone_is_the_ports_and_a_malformed_one_changes_nothing(rig: Rig) -> None:

@@ -6,11 +6,15 @@ the clock synchronised is injected with ``ALPACA_ZWO_HOST_CLOCK`` (the machine r
 its own answer). The mount is an emulator in its own process with the true clock, judged through its
 control port: its own clock (``mount_utc``) against the true one (``true_utc``), and where its axes
 really point (``raw_ha_h``) against the true sidereal time.
+
+The site's zone (issue 43 point 3): the server on another zone (``TZ``) than its site's, its wall clock moved
+by faketime onto the emulator's date (``--start-time``, December or June), sets the mount in the site's zone.
 """
 
 from __future__ import annotations
 
 import shutil
+import time
 from collections.abc import Callable, Iterator
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
@@ -28,10 +32,11 @@ BEHIND = ["faketime", "-f", "-3h"]
 TIMEOUT = 20.0
 
 
-def _faketime() -> list[str]:
+def _faketime(shift: str = BEHIND[-1]) -> list[str]:
+    """The wrapper that moves the server's wall clock by ``shift`` ("-3h", "+1234.567")."""
     if shutil.which("faketime") is None:
         pytest.fail("faketime not found: install it with `apt-get install -y faketime` (scripts/run-tests does)")
-    return BEHIND
+    return [*BEHIND[:-1], shift]
 
 
 def _mount(*extra: str) -> EmulatorProcess:
@@ -165,3 +170,87 @@ def test_time_source_host_overrides_an_unsynchronised_clock(field: Start) -> Non
     mount, server, _ = field(initialized=True, synchronised=False, config='[time]\nsource = "host"\n')
     assert mount_clock_error_s(mount) == pytest.approx(-10800, abs=2)
     assert 'time.source is "host"' in status(server)["time"]["reason"]
+
+
+# -- the site's zone (issue 43 point 3) ---------------------------------------------------------------
+
+SYDNEY, BERLIN = (-33.8688, 151.2093), (52.52, 13.405)
+DECEMBER = datetime(2026, 12, 15, 9, 0, tzinfo=timezone.utc)
+JUNE = datetime(2026, 6, 15, 9, 0, tzinfo=timezone.utc)
+
+
+def mount_local_minus_true_h(mount: EmulatorProcess) -> float:
+    """The mount's wall clock (what its hand controller and ZWO's apps show) minus true UTC, in hours."""
+    truth = mount.state()
+    local = datetime.fromisoformat(truth["mount_local"])
+    return round((local - _utc(truth["true_utc"]).replace(tzinfo=None)).total_seconds() / 60.0) / 60.0
+
+
+def server_in_zone(where: Path, mount: EmulatorProcess, site: tuple[float, float], host_zone: str,
+                   synchronised: bool, behind_s: float = 0.0) -> ServerProcess:
+    """A server on ``host_zone`` (the TZ variable: a Pi left on UTC or on London) at ``site``, whose wall
+    clock is the emulator's true one (which runs at another date) less ``behind_s``."""
+    before = time.time()
+    true = _utc(mount.state()["true_utc"]).timestamp()
+    shift = true - (before + time.time()) / 2.0 - behind_s
+    where.mkdir()
+    env = {**FAKETIME_ENV, "TZ": host_zone,
+           "ALPACA_ZWO_HOST_CLOCK": "synchronised" if synchronised else "unsynchronised"}
+    config = f"[server]\nmdns = false\n[site]\nlatitude = {site[0]}\nlongitude = {site[1]}\n"
+    return ServerProcess(where, "--device", f"socket://127.0.0.1:{mount.port()}", wrapper=_faketime(f"{shift:+.3f}"),
+                         env=env, config=config)
+
+
+@pytest.mark.parametrize(("site", "when", "host_zone", "zone", "hours"), [
+    (SYDNEY, DECEMBER, "UTC", "Australia/Sydney", 11.0),  # AEDT
+    (SYDNEY, JUNE, "UTC", "Australia/Sydney", 10.0),  # AEST
+    (BERLIN, DECEMBER, "Europe/London", "Europe/Berlin", 1.0),  # CET while London is on UTC+0
+    (BERLIN, JUNE, "Europe/London", "Europe/Berlin", 2.0),  # CEST while London is on UTC+1
+], ids=["sydney-december-host-utc", "sydney-june-host-utc", "berlin-december-host-london",
+        "berlin-june-host-london"])
+def test_the_mount_shows_the_sites_local_time_whatever_the_hosts_zone(
+        tmp_path: Path, processes: list[Any], site: tuple[float, float], when: datetime, host_zone: str,
+        zone: str, hours: float) -> None:
+    """A mount just powered up takes the site's local time and zone (daylight saving as at that date),
+    not the host's, and its UTC is exact; a second server, its clock 3 h wrong and not synchronised,
+    then reads the mount's clock back (``:GG``, ``:GL``, ``:GC``) as the true UTC."""
+    mount = _mount("--start-time", when.isoformat())
+    processes.append(mount)
+    server = server_in_zone(tmp_path / "setting", mount, site, host_zone, synchronised=True)
+    processes.append(server)
+    client = AlpacaClient(server.port, 31, timeout=TIMEOUT)
+    client.command("connected", Connected="true")
+    assert mount.state()["utc_offset_h"] == hours and mount.state()["dst"] is False
+    assert mount_local_minus_true_h(mount) == hours
+    assert abs(mount_clock_error_s(mount)) < 1.5, "the mount's UTC is not the true one"
+    assert f"the mount's clock is set in the site's zone, {zone}" in server.log()
+    client.command("connected", Connected="false")
+    server.stop()
+
+    reader = server_in_zone(tmp_path / "reading", mount, site, host_zone, synchronised=False, behind_s=10800.0)
+    processes.append(reader)
+    client = AlpacaClient(reader.port, 31, timeout=TIMEOUT)
+    client.command("connected", Connected="true")
+    assert status(reader)["time"]["source"] == "mount"
+    truth_now = _utc(mount.state()["true_utc"])
+    utcdate = _utc(client.value("utcdate"))
+    assert abs((utcdate - truth_now).total_seconds()) < 1.5, (utcdate, truth_now)
+    assert mount.state()["utc_offset_h"] == hours, "reading the clock changed the mount's zone"
+
+
+def test_a_site_a_client_sets_brings_its_zone_at_the_next_setting(tmp_path: Path, processes: list[Any]) -> None:
+    """Sydney in December (UTC+11), then a client writes Berlin's site and sets UTCDate: the mount's clock
+    is set again, in Berlin's zone (UTC+1), still exact."""
+    mount = _mount("--start-time", DECEMBER.isoformat())
+    processes.append(mount)
+    server = server_in_zone(tmp_path / "server", mount, SYDNEY, "UTC", synchronised=True)
+    processes.append(server)
+    client = AlpacaClient(server.port, 31, timeout=TIMEOUT)
+    client.command("connected", Connected="true")
+    assert mount.state()["utc_offset_h"] == 11.0
+    client.command("sitelatitude", SiteLatitude=BERLIN[0])
+    client.command("sitelongitude", SiteLongitude=BERLIN[1])
+    truth_now = _utc(mount.state()["true_utc"])
+    client.command("utcdate", UTCDate=truth_now.isoformat().replace("+00:00", "Z"))
+    assert mount.state()["utc_offset_h"] == 1.0 and mount_local_minus_true_h(mount) == 1.0
+    assert abs(mount_clock_error_s(mount)) < 1.5
