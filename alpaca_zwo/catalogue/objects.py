@@ -480,6 +480,14 @@ def ephem_body(obj: SkyObject) -> Any:
     return fixed
 
 
+def apparent_radec(obj: SkyObject, site: Site, when: datetime) -> tuple[float, float]:
+    """Topocentric apparent RA (hours) and Dec (degrees) of date at ``when``, without the rise and set
+    searches of :func:`apparent`: cheap enough to sample a day of a moving body's path."""
+    target = ephem_body(obj)
+    target.compute(observer(site, when))
+    return (math.degrees(float(target.ra)) / 15.0) % 24.0, math.degrees(float(target.dec))
+
+
 def apparent(obj: SkyObject, site: Site, when: datetime) -> Apparent:
     """Topocentric apparent RA/Dec of date, Alt/Az, and the rise/transit/set around ``when``."""
     obs = observer(site, when)
