@@ -36,7 +36,7 @@
       showVerdict(await hook.post(hook.base + "/survey"));
     } catch (err) {
       $("survey-status").textContent = "No survey: " + err.message;
-      hook.message("The survey did not run: " + err.message, "error");
+      hook.message("The survey did not run: " + err.message, "error", button);
     } finally {
       button.disabled = false;
     }
