@@ -45,6 +45,7 @@ from .mount.state import MountSettings, MountState
 from .mount.timekeeping import ClockView
 from .sky import SIDEREAL_DEG_S, PierSide
 from .telescope.passes import Pass
+from .telescope.pointing import MOUNT_UPPER
 from .telescope.stored_settings import CHECKS as STORED_CHECKS
 from .zwo.link import LinkCounters, LinkStatus, Priority, TraceEntry
 from .zwo.survey import SurveyContext, SurveyReport, run_survey
@@ -409,14 +410,16 @@ class DeviceFacade:
         the Telescope's own limit check (``Telescope.goto_limit``, the one every GoTo passes first, so the
         page never says fine where the GoTo then refuses), then the state a GoTo needs (connected, unparked).
         ``limit`` names the limit that blocks (``telescope/pointing.py``), ``says`` is the card's words and
-        ``detail`` the refusal's; ``state`` is "not connected" or "parked" when that is what blocks."""
+        ``detail`` the refusal's; ``state`` is "not connected" or "parked" when that is what blocks; ``down``:
+        the limit is a floor (the target is under the allowed sky now or when the slew would land), so a GoTo
+        must wait for it to rise."""
         telescope = self._telescope
         blocked = telescope.goto_limit(ra_hours, dec_deg)
         if blocked is not None:
             return {"reachable": False, "limit": blocked.limit, "state": None, "says": blocked.says,
                     "detail": f"target is {blocked.detail}", "altitude": blocked.altitude,
-                    "azimuth": blocked.azimuth, "after_s": blocked.after_s}
-        verdict: dict[str, Any] = {"reachable": True, "limit": None, "state": None,
+                    "azimuth": blocked.azimuth, "after_s": blocked.after_s, "down": blocked.limit != MOUNT_UPPER}
+        verdict: dict[str, Any] = {"reachable": True, "limit": None, "state": None, "down": False,
                                    "says": "reachable: above the horizon and limits", "detail": None}
         try:
             telescope.connection.require_connected()
@@ -428,6 +431,13 @@ class DeviceFacade:
                     "says": "within the limits, but the mount is parked: Unpark first",
                     "detail": "the mount is parked; unpark it first"}
         return verdict
+
+    def down_at(self, ra_hours: float, dec_deg: float, when: datetime) -> bool:
+        """Whether a target at this mount's-frame RA/Dec is under the allowed sky at ``when``: under one of
+        the floors GoTo's own check knows (the server's horizon and minimum altitude, the mount's horizon and
+        lower altitude limit), not above the mount's upper limit. The page's "Not up: rises 00:28"."""
+        blocked = self._telescope.goto_limit(ra_hours, dec_deg, travel_deg=0.0, at=when)
+        return blocked is not None and blocked.limit != MOUNT_UPPER
 
     def destination_side_of_pier(self, ra_hours: float, dec_deg: float) -> int | None:
         """DestinationSideOfPier for the mount's-frame RA/Dec; None while not connected."""

@@ -103,8 +103,19 @@
     const box = document.createElement("p");
     box.className = "refusal";
     box.setAttribute("role", "alert");
-    (near.closest("form, .row") || near).after(box);
+    besideOf(near).after(box);
     return box;
+  }
+
+  function besideOf(near) {
+    return near.closest("form, .row") || near;
+  }
+
+  /** The control's next action succeeded: the refusal beside it no longer holds (a quiet success says nothing
+   * in the message place, which would clear it). */
+  function clearBeside(near) {
+    const next = besideOf(near).nextElementSibling;
+    if (next && next.classList.contains("refusal")) next.remove();
   }
 
   /** Clear the message place and every refusal: what they described belongs to the last selection. */
@@ -138,6 +149,7 @@
     try {
       const result = await fn();
       if (!quietOk) message(label, "info");
+      else if (near) clearBeside(near);
       poll(true);
       return result;
     } catch (err) {
@@ -686,7 +698,7 @@
     state.jogging = null;
     jog.button.classList.remove("pressed");
     // The mount must stop even if this request races the press: send it regardless, quietly.
-    action("move", { axis: jog.axis, rate: 0 }).catch((err) => message("Stopping the move failed: " + err.message));
+    action("move", { axis: jog.axis, rate: 0 }).catch((err) => message("Stopping the move failed: " + err.message, "error", $("jog-hint")));
   }
 
   function bindJog() {
@@ -708,7 +720,7 @@
             state.jogging = null;
             button.classList.remove("pressed");
           }
-          message("The move did not start: " + err.message);
+          message("The move did not start: " + err.message, "error", $("jog-hint")); // under the pad
         });
       });
       for (const type of ["pointerup", "pointercancel", "lostpointercapture", "pointerleave"]) {
@@ -770,28 +782,30 @@
     window.addEventListener("keydown", (ev) => {
       if (ev.key === "Escape" && !ev.repeat) stopMount();
     }, true);
-    $("btn-connect").addEventListener("click", (ev) => run("Mount connected.", () => action("connect"), false, ev.currentTarget));
-    $("btn-disconnect").addEventListener("click", () => run("Released the mount.", () => action("disconnect")));
-    $("btn-park").addEventListener("click", () => run("Parking\u2026", () => action("park")));
-    $("btn-unpark").addEventListener("click", () => run("Unparked.", () => action("unpark")));
-    $("btn-home").addEventListener("click", () => run("Going home\u2026", () => action("find_home")));
-    $("btn-track-on").addEventListener("click", () => run("Tracking on.", () => action("tracking", { on: true })));
-    $("btn-track-off").addEventListener("click", () => run("Tracking off.", () => action("tracking", { on: false })));
+    // Each control's refusal is said beside it (its row or form), where the tap was.
+    const beside = (label, fn) => (ev) => run(label, fn, false, ev.currentTarget);
+    $("btn-connect").addEventListener("click", beside("Mount connected.", () => action("connect")));
+    $("btn-disconnect").addEventListener("click", beside("Released the mount.", () => action("disconnect")));
+    $("btn-park").addEventListener("click", beside("Parking\u2026", () => action("park")));
+    $("btn-unpark").addEventListener("click", beside("Unparked.", () => action("unpark")));
+    $("btn-home").addEventListener("click", beside("Going home\u2026", () => action("find_home")));
+    $("btn-track-on").addEventListener("click", beside("Tracking on.", () => action("tracking", { on: true })));
+    $("btn-track-off").addEventListener("click", beside("Tracking off.", () => action("tracking", { on: false })));
     $("tracking-rate").addEventListener("change", (ev) =>
-      run("Tracking rate set.", () => action("tracking_rate", { rate: Number(ev.target.value) })));
+      run("Tracking rate set.", () => action("tracking_rate", { rate: Number(ev.target.value) }), false, ev.currentTarget));
     const guide = $("guide-rate");
     guide.addEventListener("input", () => { guide.dataset.dirty = "1"; });
     $("form-guide").addEventListener("submit", async (ev) => {
       ev.preventDefault();
-      await run("Guide rate set.", () => action("guide_rate", { rate: Number(guide.value) }));
+      await run("Guide rate set.", () => action("guide_rate", { rate: Number(guide.value) }), false, ev.currentTarget);
       delete guide.dataset.dirty;
     });
-    $("btn-setpark").addEventListener("click", async () => {
-      const result = await run("Park position set to the current position.", () => action("set_park"));
+    $("btn-setpark").addEventListener("click", async (ev) => {
+      const result = await beside("Park position set to the current position.", () => action("set_park"))(ev);
       if (result) loadSettings();
     });
-    $("btn-time").addEventListener("click", () =>
-      run("Mount time set from this browser.", () => action("time", { utc: new Date().toISOString() })));
+    $("btn-time").addEventListener("click", beside("Mount time set from this browser.",
+      () => action("time", { utc: new Date().toISOString() })));
     $("btn-geo").addEventListener("click", useBrowserLocation);
   }
 
@@ -1000,7 +1014,8 @@
   async function findSafetyDevices() {
     const list = $("o-found");
     list.replaceChildren();
-    const result = await run("Discovery done.", () => post("/setup/api/safety/discover", { host: $("o-host").value.trim() }), true);
+    const result = await run("Discovery done.", () => post("/setup/api/safety/discover", { host: $("o-host").value.trim() }), true,
+      $("btn-find-devices"));
     if (!result) return;
     if (!result.servers.length) {
       const li = document.createElement("li");

@@ -122,7 +122,7 @@
         hook.message("The server's time is set from this device; the mount gets it when it is connected.", "info");
       }
     } catch (err) {
-      hook.message("Setting the time failed: " + err.message, "error");
+      hook.message("Setting the time failed: " + err.message, "error", $("clock-row"));
     } finally {
       button.disabled = false;
       fl.busy = false;

@@ -294,7 +294,20 @@
     if (o.phase) fact(dl, "Phase", o.phase.words + ", " + o.phase.lit_percent.toFixed(0) + "% lit");
     times(dl, o);
     fact(dl, "GoTo lands", o.destination_side_of_pier ? "pier " + PIER_WORDS[o.destination_side_of_pier] : "\u2013 (mount not connected)");
-    $("btn-goto").classList.toggle("caution", !up);
+    goButton(o, up);
+  }
+
+  // A target under the allowed sky gets no GoTo that must be refused: the button says when it comes up
+  // ("Not up: rises 00:28", the server's words in the site's clock) and takes no tap, and the card's
+  // refresh turns it back into GoTo once it is up. Other refusals (parked, not connected, the mount's
+  // upper limit) keep a GoTo whose refusal says what to do.
+  function goButton(o, up) {
+    const button = $("btn-goto");
+    const notUp = o.not_up;
+    button.disabled = Boolean(notUp);
+    button.textContent = notUp ? notUp.words : "GoTo";
+    button.classList.toggle("not-up", Boolean(notUp));
+    button.classList.toggle("caution", !up && !notUp);
   }
 
   // ------------------------------------------------------------------ GoTo, Sync, Confirm

@@ -123,7 +123,7 @@
       render();
       hook.message(body.clear ? "Pointing model cleared." : "Pointing model " + (model.enabled ? "on." : "off."), "info");
     } catch (err) {
-      hook.message("Pointing model: " + err.message);
+      hook.message("Pointing model: " + err.message, "error", $("pm-enabled").closest("p"));
       refresh();
     }
   }

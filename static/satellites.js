@@ -36,7 +36,7 @@
         hook.message("Following " + name + ": the mount goes to where the pass begins.", "info");
         hook.poll(true);
       } catch (err) {
-        hook.message("Follow " + name + " failed: " + err.message, "error");
+        hook.message("Follow " + name + " failed: " + err.message, "error", button);
       }
     });
     return button;

@@ -35,8 +35,8 @@
     try {
       showVerdict(await hook.post(hook.base + "/survey"));
     } catch (err) {
-      $("survey-status").textContent = "No survey: " + err.message;
-      hook.message("The survey did not run: " + err.message, "error");
+      $("survey-status").textContent = ""; // the refusal beside the button says why, once
+      hook.message("The survey did not run: " + err.message, "error", button);
     } finally {
       button.disabled = false;
     }

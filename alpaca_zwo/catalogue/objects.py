@@ -308,14 +308,33 @@ def _names_found(text: str, limit: int) -> Found:
         first.setdefault(obj.id, (obj, how))
     objects_found = tuple(first.values())
     figure = constellations.by_key(key) if key else None
-    # A constellation comes after the objects a name also begins ("Andromeda" is first the galaxy) and
-    # does not make Enter's choice doubtful; named alone ("Crux", "Southern Cross") it is the one meant.
-    extra = ((figure[0], None if figure[1] == figure[0].name else figure[1]),) if figure else ()
-    matches = (objects_found + extra)[:limit]
     distinct_exact = {obj.id for obj, _ in exact}
     confident = (len(distinct_exact) == 1 or (not exact and len(objects_found) == 1 and len(key) >= 3)
                  or (not objects_found and figure is not None))
+    if figure is None:
+        return Found(objects_found[:limit], confident, _note(text, key, objects_found[:limit], confident))
+    # A constellation named exactly ("Leo", "Crux", "Southern Cross") is the one meant, before the objects its
+    # name merely begins ("Leo I", a faint dwarf galaxy) or is a word of ("Small Sagittarius Star Cloud"),
+    # except an object named so exactly and a famous one whose name begins so ("Andromeda" is first the galaxy).
+    constellation = (figure[0], None if figure[1] == figure[0].name else figure[1])
+    begun = {obj.id for obj, _ in prefix}
+    ahead = [pair for pair in objects_found
+             if pair[0].id in distinct_exact or (pair[0].id in begun and _famous(pair[0]))]
+    after = [pair for pair in objects_found if pair not in ahead]
+    matches = (*ahead, constellation, *after)[:limit]
+    confident = confident if ahead else True
     return Found(matches, confident, _note(text, key, matches, confident))
+
+
+#: A deep-sky object is famous, for the search's order, when it is a Messier or Caldwell object a small
+#: telescope shows: no fainter than this (Centaurus A's 7.2 is; Perseus A's 12.2, Caldwell 24, is not).
+FAMOUS_MAGNITUDE = 8.0
+
+
+def _famous(obj: SkyObject) -> bool:
+    """A Messier or Caldwell object of magnitude 8 or brighter ("Andromeda Galaxy", "Centaurus A")."""
+    listed = any(re.fullmatch(r"[MC]\s?\d+", name) for name in (obj.name, *obj.aliases))
+    return listed and obj.magnitude is not None and obj.magnitude <= FAMOUS_MAGNITUDE
 
 
 def _as_matched(pairs: list[tuple[SkyObject, str]]) -> list[tuple[SkyObject, str | None]]:
@@ -462,6 +481,14 @@ def ephem_body(obj: SkyObject) -> Any:
     fixed._pmra, fixed._pmdec = obj.pm_ra_mas, obj.pm_dec_mas  # mas/yr, as PyEphem's own star list
     fixed._epoch = ephem.J2000  # equinox and epoch of the position
     return fixed
+
+
+def apparent_radec(obj: SkyObject, site: Site, when: datetime) -> tuple[float, float]:
+    """Topocentric apparent RA (hours) and Dec (degrees) of date at ``when``, without the rise and set
+    searches of :func:`apparent`: cheap enough to sample a day of a moving body's path."""
+    target = ephem_body(obj)
+    target.compute(observer(site, when))
+    return (math.degrees(float(target.ra)) / 15.0) % 24.0, math.degrees(float(target.dec))
 
 
 def apparent(obj: SkyObject, site: Site, when: datetime) -> Apparent:

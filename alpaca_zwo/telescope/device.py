@@ -23,7 +23,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from datetime import timedelta
+from datetime import datetime, timedelta
 
 from .. import sky
 from .._exceptions import (
@@ -383,16 +383,19 @@ class Telescope:
                 self.mount.settings_cache.mark_stale()
             raise
 
-    def goto_limit(self, ra: float, dec: float, travel_deg: float | None = None) -> pointing.Blocked | None:
+    def goto_limit(self, ra: float, dec: float, travel_deg: float | None = None,
+                   at: datetime | None = None) -> pointing.Blocked | None:
         """The one limit check every GoTo to a sky position passes first (``pointing.goto_blocked``), and
         what the setup page shows before one: the server's horizon and minimum altitude, the mount's horizon
         and its stored altitude limits, now and through the slew's landing. ``travel_deg`` is how far the
-        slew goes (default: from where the mount points); it sets when the landing is."""
+        slew goes (default: from where the mount points); it sets when the landing is. ``at``: the same
+        check at another instant (when a target that is down now will be up: the page's "Not up: rises")."""
         if travel_deg is None:
             here = self.mount.position()
             travel_deg = 0.0 if here is None else sky.angular_separation(ra, dec, *here)
         slew_s = SLEW_S_FIXED + travel_deg * SLEW_S_PER_DEG
-        return pointing.goto_blocked(self.settings, self._mount_altitude_limits(), self.clock.lst(), ra, dec, slew_s)
+        return pointing.goto_blocked(self.settings, self._mount_altitude_limits(), self.clock.lst(at), ra, dec,
+                                     slew_s)
 
     def _check_goto(self, ra: float, dec: float, travel_deg: float | None = None) -> None:
         blocked = self.goto_limit(ra, dec, travel_deg)

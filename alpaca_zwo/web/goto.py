@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
-from datetime import datetime, timezone
+from datetime import datetime, timedelta, timezone
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
@@ -106,6 +106,62 @@ def _moon_phase(device: DeviceFacade) -> dict[str, Any]:
     return {"lit_percent": round(lit, 1), "waxing": waxing, "words": words}
 
 
+#: How far ahead a target that is down is followed until it comes up, the step it is sampled at (a gap in
+#: the horizon profile narrower than a step's turn of the sky can be missed) and how exactly the instant is found.
+RISE_WITHIN = timedelta(hours=24)
+RISE_STEP = timedelta(minutes=5)
+RISE_EXACT = timedelta(seconds=10)
+
+
+def rises_into_limits(device: DeviceFacade, obj: SkyObject, now: datetime) -> datetime | None:
+    """The first instant within a day after ``now`` at which the object comes up into the allowed sky (the
+    horizon profile, the minimum altitude, the mount's horizon and altitude limit: ``DeviceFacade.down_at``,
+    GoTo's own check), having been under it just before: a target setting now waits for its next rise.
+    None when it does not come up within the day. Moving bodies are followed along their path."""
+    objects = _objects()
+    site = objects.Site(*device.site())
+
+    def down(at: datetime) -> bool:
+        ra_hours, dec_deg = objects.apparent_radec(obj, site, at)
+        return device.down_at(ra_hours, dec_deg, at)
+
+    was_down, before = down(now), now
+    for step in range(1, RISE_WITHIN // RISE_STEP + 1):
+        at = now + RISE_STEP * step
+        is_down = down(at)
+        if was_down and not is_down:
+            while at - before > RISE_EXACT:  # down at ``before``, up at ``at``: halve the gap
+                middle = before + (at - before) / 2
+                if down(middle):
+                    before = middle
+                else:
+                    at = middle
+            return at
+        was_down, before = is_down, at
+    return None
+
+
+def _not_up(device: DeviceFacade, obj: SkyObject, place: Apparent, verdict: dict[str, Any], zone: SiteZone,
+            now: datetime) -> dict[str, Any] | None:
+    """What the GoTo button says instead of sending a slew that must be refused, when the target is under
+    the allowed sky (None when it is not): "Not up: rises 00:28" in the site's clock (the minute it is up
+    by), "Not up: never rises here", "Not up: never clears the limits here" (a fixed object whose highest
+    is under them), "Not up tonight" (a moving body not up within a day)."""
+    if not verdict.get("down"):
+        return None
+    rises = rises_into_limits(device, obj, now)
+    if rises is not None:
+        up_by = (rises + timedelta(seconds=59)).replace(second=0, microsecond=0)
+        words = f"Not up: rises {up_by.astimezone(zone.zone):%H:%M}"
+    elif place.never_up:
+        words = "Not up: never rises here"
+    elif obj.body is None:
+        words = "Not up: never clears the limits here"
+    else:
+        words = "Not up tonight"
+    return {"rises": _site_time(rises, zone), "words": words}
+
+
 def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
     """What the page shows for a selection: the place now, whether a GoTo may go there, and how; the
     rise/transit/set instants in UTC and in the site's zone (``objects.site_zone``), with its name."""
@@ -126,6 +182,7 @@ def describe(device: DeviceFacade, obj: SkyObject) -> dict[str, Any]:
         "site_times": {"rise": _site_time(place.rise, zone), "transit": _site_time(place.transit, zone),
                        "set": _site_time(place.set, zone)},
         "tonight": _tonight(device, obj, zone),
+        "not_up": _not_up(device, obj, place, verdict, zone, now),
         "phase": _moon_phase(device) if obj.body == "Moon" else None,
         "always_up": place.always_up, "never_up": place.never_up,
         "tracking_rate": obj.tracking_rate,

@@ -1,16 +1,19 @@
-"""The object card's GoTo verdict in real Chromium (issue 33 item 2), at 390x844 (night mode) and 1280x900.
+"""The object card's GoTo verdict in real Chromium (issue 33 item 2, issue 43 point 8), at 390x844 (night
+mode) and 1280x900 (day), north and at Sydney.
 
 The mount's own altitude limit is set to 15° through the Alpaca Action ``zwo:AltitudeLimits``, as N.I.N.A.
 or a script would, and Arcturus is put at about 10° rising (the site's longitude chosen for now): the card
-names the mount's limit, and a tap on GoTo is refused in the same words, by the server, with the emulator
-not moved. On the desktop the card then follows the sky: Arcturus put just under the limit turns
-"reachable" by itself as it rises through it (the emulator's clock runs at 4x), without a new search.
+names the mount's limit, and the GoTo button, instead of sending a slew the server must refuse, says when the
+star comes up over that limit in the site's clock ("Not up: rises 21:47") and is disabled: nothing a tap
+could send. On the desktop the card then follows the sky: Arcturus put just under the limit turns
+"reachable" and its button back into GoTo by itself as it rises through it (the emulator's clock runs at
+4x), without a new search, and that GoTo starts.
 """
 
 from __future__ import annotations
 
 import json
-import math
+from datetime import datetime
 
 import pytest
 from selenium.webdriver.common.by import By
@@ -20,25 +23,23 @@ from selenium.webdriver.support.ui import WebDriverWait
 from alpaca_zwo.catalogue import objects
 from tests.browser.test_page_handset import TIMEOUT, Scene, button, shown, tap
 from tests.conftest import ServerFactory
-from tests.web.test_setup_goto import LATITUDE, _longitude_putting
+from tests.support.sites import NORTH, SYDNEY, Site
+from tests.web.test_not_up import hour_angle_rising_at
+from tests.web.test_setup_goto import _longitude_putting
 
 STAR = "Arcturus"
 LIMIT_WORDS = "below the mount's altitude limit of 15°"
 
 
-def _hour_angle_rising_at(altitude: float, dec: float, latitude: float = LATITUDE) -> float:
-    """The (negative: east, rising) hour angle in hours at which a star at ``dec`` stands at ``altitude``."""
-    phi, delta = math.radians(latitude), math.radians(dec)
-    cos_h = (math.sin(math.radians(altitude)) - math.sin(phi) * math.sin(delta)) / (math.cos(phi) * math.cos(delta))
-    return -math.degrees(math.acos(cos_h)) / 15.0
-
-
 def _put_at(scene: Scene, altitude: float) -> None:
-    """Move the site so the star stands at ``altitude`` in the east now."""
+    """Move the site so the star stands at ``altitude`` in the east now, by the mount's clock (at 4x, ahead
+    of the wall clock by three times the test's age)."""
     star = objects.lookup(STAR)
     assert star.dec_deg is not None
-    lon = _longitude_putting(star, ha_hours=_hour_angle_rising_at(altitude, star.dec_deg))
-    scene.client.change({"site": {"latitude": LATITUDE, "longitude": lon, "elevation": 46.0}})
+    mount_now = datetime.fromisoformat(str(scene.client.value("utcdate")).replace("Z", "+00:00"))
+    lon = _longitude_putting(star, ha_hours=hour_angle_rising_at(altitude, star.dec_deg, scene.latitude),
+                             latitude=scene.latitude, now=mount_now)
+    scene.client.change({"site": {"latitude": scene.latitude, "longitude": lon, "elevation": 46.0}})
 
 
 def _fact(driver: WebDriver, term: str) -> str:
@@ -52,10 +53,18 @@ def _limits_line(driver: WebDriver) -> str:
     return _fact(driver, "Limits")
 
 
+def _goto_button(driver: WebDriver) -> tuple[str, bool]:
+    """The GoTo button's words and whether it takes a tap, read in one step (the card is redrawn)."""
+    words, enabled = driver.execute_script(
+        "const b = document.getElementById('btn-goto'); return [b.textContent, !b.disabled];")
+    return str(words), bool(enabled)
+
+
+@pytest.mark.parametrize("site", [NORTH, SYDNEY], ids=lambda s: s.name)
 @pytest.mark.parametrize("size", ["phone", "desktop"])
-def test_the_card_names_the_mounts_altitude_limit_and_goto_is_refused(server_factory: ServerFactory,
-                                                                       browser: WebDriver, size: str) -> None:
-    scene = Scene(server_factory, browser, size, STAR)
+def test_under_the_mounts_limit_goto_says_when_it_rises_and_becomes_goto_then(
+        server_factory: ServerFactory, browser: WebDriver, size: str, site: Site) -> None:
+    scene = Scene(server_factory, browser, size, STAR, latitude=site.latitude)
     driver, client, model = scene.driver, scene.client, scene.model
     reply = client.command("action", Action="zwo:AltitudeLimits", Parameters=json.dumps({"enabled": True, "lower": 15}))
     assert json.loads(reply.value)["lower"] == 15
@@ -65,22 +74,27 @@ def test_the_card_names_the_mounts_altitude_limit_and_goto_is_refused(server_fac
     WebDriverWait(driver, TIMEOUT).until(lambda d: _limits_line(d) == LIMIT_WORDS)
     card = shown(driver, "selection")
     assert "above the horizon" not in card and "reachable" not in card, card
-    altitude = client.session.get(f"{client.api}/object", params={"id": STAR}, timeout=TIMEOUT).json()["altitude"]
-    assert 9.0 < altitude < 11.0
-    driver.save_screenshot(f"/tmp/alpaca-zwo-verdict-limit-{size}.png")
-    before = model.snapshot()
-    tap(driver, button(driver, "GoTo"))
-    WebDriverWait(driver, TIMEOUT).until(
-        lambda d: f"GoTo {STAR} refused: target is {LIMIT_WORDS}" in d.find_element(By.TAG_NAME, "body").text)
-    after = model.snapshot()
-    assert after["slew"] is None and after["target_ra_h"] == before["target_ra_h"]  # the mount was never asked
+    body = client.session.get(f"{client.api}/object", params={"id": STAR}, timeout=TIMEOUT).json()
+    assert 9.0 < body["altitude"] < 11.0
+    # The button says when it is up over the 15° limit, in the site's clock, and cannot send a GoTo.
+    words, enabled = _goto_button(driver)
+    assert words.startswith("Not up: rises ") and not enabled, words
+    assert words in (body["not_up"]["words"], client.session.get(  # the server's minute (a refresh may be later)
+        f"{client.api}/object", params={"id": STAR}, timeout=TIMEOUT).json()["not_up"]["words"]), (words, body)
+    assert body["not_up"]["rises"][-6:] == body["tonight"]["start"][-6:]  # the clock the card's times are in
+    assert driver.find_elements(By.XPATH, "//button[normalize-space()='GoTo']") == []
+    driver.save_screenshot(f"/tmp/alpaca-zwo-not-up-{site.name}-{size}.png")
+    assert model.snapshot()["slew"] is None and not client.value("slewing")
 
     if size == "desktop":
-        # Just under the limit and rising: the card turns reachable as the sky turns, on its own refresh.
+        # Just under the limit and rising: the card turns reachable and GoTo comes back as the sky turns,
+        # on the card's own refresh.
         _put_at(scene, 14.85)
         WebDriverWait(driver, TIMEOUT).until(  # the card at the new place (14.8° or 14.9°), still blocked
             lambda d: _fact(d, "Alt / Az").startswith("+14\u00b0") and _limits_line(d) == LIMIT_WORDS)
+        assert _goto_button(driver)[0].startswith("Not up: rises ")
         WebDriverWait(driver, 60).until(lambda d: _limits_line(d) == "reachable: above the horizon and limits")
+        WebDriverWait(driver, TIMEOUT).until(lambda d: _goto_button(d) == ("GoTo", True))
         tap(driver, button(driver, "GoTo"))
         WebDriverWait(driver, TIMEOUT).until(
             lambda d: f"GoTo {STAR} started." in d.find_element(By.TAG_NAME, "body").text)

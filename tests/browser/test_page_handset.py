@@ -196,13 +196,12 @@ def test_search_list_and_the_sun_moves_nothing_without_confirm(server_factory: S
     WebDriverWait(driver, TIMEOUT).until(lambda d: not shown(d, "confirm-text"))
     assert model.snapshot()["slew"] is None and not scene.client.value("slewing")
 
-    # A refusal is shown in the server's words (Canopus never rises at 51.5° N).
+    # A target that never rises gets no GoTo to be refused: the button says so (Canopus at 51.5° N).
     scene.find("Canopus", False)
     WebDriverWait(driver, TIMEOUT).until(lambda d: scene.selected() == "Canopus")
     assert "never rises here" in shown(driver, "selection")
-    tap(driver, button(driver, "GoTo"))
-    WebDriverWait(driver, TIMEOUT).until(
-        lambda d: "GoTo Canopus refused: target is below the horizon limit" in refusal(d))
+    goto = driver.find_element(By.ID, "btn-goto")
+    assert goto.text == "Not up: never rises here" and not goto.is_enabled()
     assert model.snapshot()["slew"] is None
 
 

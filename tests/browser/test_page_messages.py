@@ -1,8 +1,9 @@
 """One message place, and STOP honest through braking (issue 43 points 1 and 2), in real Chromium at
 390x844 (night mode, as at the telescope) and 1280x900.
 
-A first night at 51.5° N: two famous southern stars are refused one after the other. Each refusal is shown
-beside the GoTo that caused it, the newest replacing the one before, never over GoTo or STOP; both are in the
+A first night at 51.5° N with the mount left parked: GoTos to two bright stars are refused one after the
+other (a star that is down gets no GoTo to refuse: tests/browser/test_page_goto_verdict.py). Each refusal is
+shown beside the GoTo that caused it, the newest replacing the one before, never over GoTo or STOP; both are in the
 log (the Log panel, times with their zone), and choosing another object clears them. STOP is judged against
 the mount: on a real-time emulator clock the mount brakes for about two seconds after it has the stop, and
 the page may say where it came to rest only after Alpaca's Slewing has turned false.
@@ -60,7 +61,9 @@ def test_refusals_beside_goto_newest_only_in_the_log_cleared_by_a_new_choice(ser
     scene = Scene(server_factory, browser, size, "Vega")
     driver, client = scene.driver, scene.client
     stop = driver.execute_script("return JSON.stringify(document.getElementById('btn-stop').getBoundingClientRect())")
-    for star in ("Canopus", "Achernar"):  # neither ever rises at 51.5° N
+    client.action("park")
+    wait_until(lambda: client.status()["at_park"], 60, "the mount to park")
+    for star in ("Vega", "Altair"):  # both up at 51.5° N: refused because the mount is parked
         _refuse(scene, star)
         boxes = driver.execute_script("return document.querySelectorAll('.refusal').length")
         assert boxes == 1, boxes  # the newest replaced the one before: nothing stacks
@@ -68,7 +71,7 @@ def test_refusals_beside_goto_newest_only_in_the_log_cleared_by_a_new_choice(ser
         for control in ("btn-goto", "btn-sync", "btn-stop"):  # the refusal covers none of them
             assert driver.execute_script(_HIT, control) == control, control
     said = refusal(driver)
-    assert "Canopus" not in said and "GoTo Achernar refused: " in said
+    assert "Vega" not in said and "GoTo Altair refused: " in said and "unpark it first" in said, said
     if size == "phone":  # night mode: the refusal is red light only
         colour = driver.execute_script("return getComputedStyle(document.querySelector('.refusal')).color")
         red, green, blue = (int(v) for v in re.findall(r"\d+", colour)[:3])
@@ -76,14 +79,16 @@ def test_refusals_beside_goto_newest_only_in_the_log_cleared_by_a_new_choice(ser
     driver.save_screenshot(f"/tmp/alpaca-zwo-refusal-{size}.png")
     # Both refusals are the log's history, and the Log panel names the zone of its times.
     logged = _log_messages(client)
-    assert any("GoTo Canopus refused: " in m for m in logged) and any("GoTo Achernar refused: " in m for m in logged)
+    assert any("GoTo Vega refused: " in m for m in logged) and any("GoTo Altair refused: " in m for m in logged)
     driver.execute_script("document.getElementById('log-panel').open = true;"
                           " document.getElementById('log-panel').dispatchEvent(new Event('toggle'))")
     WebDriverWait(driver, TIMEOUT).until(
-        lambda d: re.search(r"^\d\d:\d\d:\d\d UTC WARNING .*GoTo Canopus refused: ",
+        lambda d: re.search(r"^\d\d:\d\d:\d\d UTC WARNING .*GoTo Vega refused: ",
                             d.find_element(By.ID, "log").get_attribute("textContent") or "", re.M))
 
     # Another choice clears them; a GoTo that starts says so in the one message place, inside STOP's bar.
+    client.action("unpark")
+    wait_until(lambda: not client.status()["at_park"], TIMEOUT, "the mount to unpark")
     scene.find("Vega", False)
     WebDriverWait(driver, TIMEOUT).until(lambda d: scene.selected() == "Vega")
     assert driver.execute_script("return document.querySelectorAll('.refusal, #messages .msg').length") == 0
@@ -217,3 +222,47 @@ def test_a_field_the_browser_refuses_is_said_beside_its_form_in_the_pages_colour
     else:
         assert red > green and red > blue, colour
     assert scene.client.settings()["site"]["elevation"] == 46.0  # nothing was sent
+
+
+def _beside(driver: WebDriver, control: str) -> str:
+    """The refusal under the row of ``control`` ('' when there is none)."""
+    return str(driver.execute_script(
+        "const next = document.getElementById(arguments[0]).closest('.row').nextElementSibling;"
+        " return next && next.classList.contains('refusal') ? next.innerText : '';", control))
+
+
+@pytest.mark.parametrize("size", ["phone", "desktop"])
+def test_a_controls_refusal_is_beside_it_newest_only_and_cleared_by_its_next_success(
+        server_factory: ServerFactory, browser: WebDriver, size: str) -> None:
+    """With the mount parked, Home and then Tracking On are refused: each refusal is said under the row of the
+    button that caused it (not in STOP's bar, over no control), the newest replacing the one before, both in the
+    log; Unpark's success clears it."""
+    scene = Scene(server_factory, browser, size, "Vega")
+    driver, client = scene.driver, scene.client
+    client.action("park")
+    wait_until(lambda: client.status()["at_park"], 60, "the mount to park")
+    WebDriverWait(driver, TIMEOUT).until(lambda d: d.find_element(By.ID, "btn-unpark").is_enabled())
+    tap(driver, driver.find_element(By.ID, "btn-home"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: _beside(d, "btn-home"))
+    said = _beside(driver, "btn-home")
+    assert said == ("The mount did not go home: going home is not allowed while the telescope is parked; "
+                    "unpark it first"), said
+    assert driver.find_element(By.ID, "messages").text == ""
+    for control in ("btn-park", "btn-unpark", "btn-home", "btn-track-on", "btn-track-off", "btn-stop", "jog-s"):
+        assert driver.execute_script(_HIT, control) == control, control
+    driver.save_screenshot(f"/tmp/alpaca-zwo-refusal-home-{size}.png")
+
+    tap(driver, driver.find_element(By.ID, "btn-track-on"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: _beside(d, "btn-track-on"))
+    assert _beside(driver, "btn-track-on").startswith("Tracking did not turn on: turning tracking on is not allowed")
+    assert _beside(driver, "btn-home") == ""  # the newest only
+    assert driver.execute_script("return document.querySelectorAll('.refusal').length") == 1
+    for control in ("btn-track-on", "btn-track-off", "tracking-rate", "guide-rate", "btn-stop"):
+        assert driver.execute_script(_HIT, control) == control, control
+    logged = _log_messages(client)
+    assert any("The mount did not go home: " in m for m in logged), logged
+    assert any("Tracking did not turn on: " in m for m in logged), logged
+
+    tap(driver, driver.find_element(By.ID, "btn-unpark"))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: "Unparked." in d.find_element(By.ID, "messages").text)
+    assert driver.execute_script("return document.querySelectorAll('.refusal').length") == 0

@@ -49,7 +49,9 @@ def fetch(driver: WebDriver, method: str, path: str, body: object = None, *,
 
 
 def messages(driver: WebDriver) -> str:
-    return driver.find_element(By.ID, "messages").text
+    """What the page says: its message place and the refusals beside the controls that caused them."""
+    return str(driver.execute_script(
+        "return [...document.querySelectorAll('#messages, .refusal')].map((e) => e.innerText).join('\\n')"))
 
 
 def test_page_by_a_rebound_name_is_refused_and_moves_nothing(browser_factory: Callable[..., Any],
@@ -79,7 +81,7 @@ def test_page_by_a_rebound_name_is_refused_and_moves_nothing(browser_factory: Ca
 
     # Controls clicked in the page: Tracking on, and a held jog button.
     driver.find_element(By.ID, "btn-track-on").click()
-    WebDriverWait(driver, TIMEOUT).until(lambda d: "Tracking did not turn on: Refused" in messages(d))
+    WebDriverWait(driver, TIMEOUT).until(lambda d: "Tracking did not turn on: Refused" in messages(d))  # beside it
     jog = driver.find_element(By.ID, "jog-n")
     ActionChains(driver).click_and_hold(jog).perform()
     WebDriverWait(driver, TIMEOUT).until(lambda d: "The move did not start: Refused" in messages(d))  # the newest only

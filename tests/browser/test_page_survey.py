@@ -40,9 +40,10 @@ def test_survey_button_refuses_while_moving_then_shows_the_verdict_and_the_repor
     try:
         browser.execute_script("arguments[0].scrollIntoView()", run)
         run.click()
-        status = browser.find_element(By.ID, "survey-status")
-        WebDriverWait(browser, TIMEOUT).until(lambda d: status.text.startswith("No survey:"))
-        assert "survey not run: the mount is" in status.text, status.text
+        beside = "return (document.getElementById('survey-run').nextElementSibling || {}).innerText || ''"
+        WebDriverWait(browser, TIMEOUT).until(lambda d: d.execute_script(beside).startswith("The survey did not run:"))
+        assert "survey not run: the mount is" in browser.execute_script(beside)  # beside the button, once
+        assert browser.find_element(By.ID, "survey-status").text == ""
         assert not download.is_displayed() and not _states(browser)
     finally:
         client.action("abort")

@@ -218,7 +218,9 @@ def test_observatory_form_sets_the_monitor_and_the_page_shows_its_answer(
         assert "IsSafe=false" in text(browser, "o-state")
         WebDriverWait(browser, 60).until(lambda d: text(d, "park") == "parked")  # on_unsafe = "park"
         browser.find_element(By.ID, "btn-unpark").click()
-        WebDriverWait(browser, 10).until(lambda d: "safety monitor" in text(d, "messages"))
+        beside = ("return (document.querySelector('#btn-unpark').closest('.row').nextElementSibling || {})"
+                  ".innerText || ''")
+        WebDriverWait(browser, 10).until(lambda d: "safety monitor" in d.execute_script(beside))  # beside Unpark
         assert alpaca.value("atpark") is True
         refused = "/action/unpark - Failed to load resource: the server responded with a status of 409"
         assert [e for e in console_errors(browser) if refused not in e["message"]] == []  # the refusal only

@@ -396,5 +396,23 @@ def test_a_constellation_points_at_the_middle_of_its_figure() -> None:
     found = find("Andromeda")
     assert [obj.id for obj in found.objects][:2] == ["dso:NGC0224", "con:And"] and found.confident
     assert find("Southern Cross").matches[0][1] == "Southern Cross"  # shown by the name it was found by
+
+
+@pytest.mark.parametrize(("typed", "then"), [
+    ("Leo", "Leo I"),  # a faint dwarf galaxy whose name begins so
+    ("Perseus", "NGC 1275"),  # Perseus A: a Caldwell object, but of magnitude 12
+    ("Sagitta", "M24"),  # the Small Sagittarius Star Cloud: a word of its name begins so
+    ("Virgo", "M87"),  # the "Virgo Galaxy", of magnitude 9
+])
+def test_a_constellation_named_exactly_comes_before_what_its_name_only_begins(typed: str, then: str) -> None:
+    """Typing a constellation's name lists the constellation first and Enter takes it (issue 43 point 8)."""
+    found = find(typed)
+    assert [obj.name for obj in found.objects][:2] == [typed, then] and found.confident, found
+    assert found.objects[0].kind == "constellation"
+
+
+@pytest.mark.parametrize(("typed", "first"), [("Centaurus", "NGC 5128"), ("Orion", "M42"), ("Hercules", "M13")])
+def test_a_famous_object_whose_name_begins_so_stays_ahead_of_the_constellation(typed: str, first: str) -> None:
+    assert [obj.name for obj in find(typed).objects][:2] == [first, typed]
     with pytest.raises(ObjectError):
         lookup("con:Xyz")  # no such constellation: said, not guessed

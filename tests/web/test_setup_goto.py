@@ -38,9 +38,11 @@ def client(base_url: str) -> Client:
     return Client(base_url)
 
 
-def _longitude_putting(obj: objects.SkyObject, ha_hours: float = -1.5, latitude: float = LATITUDE) -> float:
-    """The east longitude where ``obj`` stands ``ha_hours`` from the meridian now, at ``latitude``."""
-    now = datetime.now(timezone.utc)
+def _longitude_putting(obj: objects.SkyObject, ha_hours: float = -1.5, latitude: float = LATITUDE,
+                       now: datetime | None = None) -> float:
+    """The east longitude where ``obj`` stands ``ha_hours`` from the meridian ``now`` (default: the wall
+    clock's now; a mount on a fast emulator clock is ahead of it), at ``latitude``."""
+    now = now or datetime.now(timezone.utc)
     place = objects.apparent(obj, objects.Site(latitude, 0.0, 0.0), now)
     gmst = sky.local_sidereal_time(now, 0.0)
     return (((place.ra_hours + ha_hours - gmst) * 15.0 + 180.0) % 360.0) - 180.0
