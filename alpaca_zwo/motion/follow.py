@@ -73,7 +73,7 @@ class Follower:
         self.mount = mount
         self._last_tick: float | None = None
 
-    def _top_speed(self) -> float:
+    def top_speed(self) -> float:
         """The mount's top speed now (deg/s): 1440× sidereal, 720× in heavy-duty mode (field notes §2.3)."""
         settings = self.mount.settings
         heavy = settings is not None and bool(settings.heavy_duty)
@@ -127,7 +127,7 @@ class Follower:
         mount_ra = position[0] * 15.0 + follow.speeds[0] * follow.lead_s
         mount_dec = position[1] + follow.speeds[1] * follow.lead_s
         error_ra = sky.wrap_hours_12((ra_deg - mount_ra) / 15.0) * 15.0
-        top = self._top_speed()
+        top = self.top_speed()
         wanted = (v_ra + error_ra / CORRECTION_S, v_dec + (dec - mount_dec) / CORRECTION_S)
         for axis in (0, 1):
             speed = _limited(wanted[axis], follow.speeds[axis], dt, top)
