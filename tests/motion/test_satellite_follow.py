@@ -137,3 +137,24 @@ def test_a_high_pass_flips_mid_pass_and_follows_its_second_leg(tmp_path: Path) -
         rig.motion.abort()
         assert satellites.progress().ended == "stopped"  # type: ignore[union-attr]
         wait_until(lambda: not rig.motion.slewing(), timeout=15.0)
+
+
+def test_a_stop_during_the_flip_ends_the_follow_and_the_mount_comes_to_rest(tmp_path: Path) -> None:
+    """AbortSlew while the flip's GOTO runs: the follow ends, no second leg starts, the mount is at rest."""
+    planned = passes(ISS, AllowedSky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
+    high = next(p for p in planned if p.max_altitude > 80.0 and p.side.flip is not None)
+    clock = ScaledClock(1.0, start_utc=high.side.flip.flip_at - timedelta(seconds=45))  # type: ignore[union-attr]
+    with parts_rig(tmp_path, clock=clock) as rig:
+        rig.mount.connect()
+        satellites = _satellites(rig, tmp_path)
+        satellites.follow(ISS)
+        wait_until(lambda: satellites.progress().phase.startswith("flipping")  # type: ignore[union-attr]
+                   and rig.model.snapshot()["slew"] is not None, timeout=90.0, interval=0.1)
+        assert rig.motion.slewing()
+        rig.motion.abort()
+        progress = satellites.progress()
+        assert progress is not None and progress.phase == "ended" and progress.ended == "stopped"
+        wait_until(lambda: not rig.motion.slewing(), timeout=30.0)
+        still = rig.model.snapshot()
+        assert still["moves_deg_s"] == [None, None] and still["slew"] is None
+        assert satellites.progress().phase == "ended"  # type: ignore[union-attr]
