@@ -46,6 +46,7 @@ from .mount.timekeeping import ClockView
 from .sky import SIDEREAL_DEG_S, PierSide
 from .telescope.passes import Pass
 from .telescope.pointing import MOUNT_UPPER
+from .telescope.satellites import side_name
 from .telescope.stored_settings import CHECKS as STORED_CHECKS
 from .zwo.link import LinkCounters, LinkStatus, Priority, TraceEntry
 from .zwo.survey import SurveyContext, SurveyReport, run_survey
@@ -545,11 +546,16 @@ class DeviceFacade:
 
 
 def _pass_view(planned: Pass) -> dict[str, Any]:
-    """A pass as the page lists it: its instants, how high, the part followed and its side plan."""
+    """A pass as the page lists it: its instants, how high, the part followed and its side plan (both
+    legs of a planned flip)."""
+    flip = planned.side.flip
     return {"rise": planned.rise, "culmination": planned.culmination, "set": planned.set,
             "max_altitude": round(planned.max_altitude, 1), "enters": planned.enters, "leaves": planned.leaves,
-            "side": {PierSide.EAST: "pierEast", PierSide.WEST: "pierWest"}.get(planned.side.side),
-            "side_until": planned.side.until, "side_note": planned.side.why, "keyhole": planned.keyhole}
+            "side": side_name(planned.side.side) if planned.side.side in (PierSide.EAST, PierSide.WEST) else None,
+            "side_until": planned.side.until, "side_note": planned.side.why, "keyhole": planned.keyhole,
+            "flip": None if flip is None else {
+                "side": side_name(flip.side), "flip_at": flip.flip_at, "resumes": flip.resumes,
+                "gap_s": round(flip.gap_s), "until": flip.until, "note": flip.why}}
 
 
 class ServerFacade:

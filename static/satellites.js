@@ -49,7 +49,11 @@
     cell(row, p.max_altitude.toFixed(0) + "\u00b0 at " + clock(p.culmination));
     let part = clock(p.enters) + "\u2013" + clock(p.side_until || p.leaves);
     if (p.side) part += " (" + p.side + ")";
-    if (p.side_note) part += ": then " + p.side_note;
+    if (p.flip) {  // a meridian flip mid-pass, then the second leg on the other side
+      part += ", flip " + p.flip.gap_s + " s, " + clock(p.flip.resumes) + "\u2013" +
+        clock(p.flip.until || p.leaves) + " (" + p.flip.side + ")";
+      if (p.flip.note) part += ": then " + p.flip.note;
+    } else if (p.side_note) part += ": then " + p.side_note;
     if (p.keyhole) part += "; alt-az: too fast near the zenith";
     cell(row, part, "small");
     const last = document.createElement("td");

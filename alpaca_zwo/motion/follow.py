@@ -6,7 +6,9 @@ like any motion: its ``:Q#`` ends the axis moves too. Its phases, kept in :class
 
 1. *aiming*: a GOTO to where the target will be when it enters the allowed sky (``enters``); with
    tracking on, the mount holds that point of the sky while it waits.
-2. *waiting*: until the target is one lead time from that point.
+2. *waiting*: until the target is one lead time from that point. After a meridian flip (the second leg,
+   ``supervisor._begin_flip``) the target arrives fast: each axis ramps to its speed centred on that
+   instant (the run-up), so the mount is on it and at speed together.
 3. *following*: every supervisor tick, each axis is given the speed the target moves at (its rate
    one lead time ahead) plus a correction of the error between where the target will be and where the
    mount will be by then (``CORRECTION_S``: the error is paid back over that time). The lead is the
@@ -73,7 +75,7 @@ class Follower:
         self.mount = mount
         self._last_tick: float | None = None
 
-    def _top_speed(self) -> float:
+    def top_speed(self) -> float:
         """The mount's top speed now (deg/s): 1440× sidereal, 720× in heavy-duty mode (field notes §2.3)."""
         settings = self.mount.settings
         heavy = settings is not None and bool(settings.heavy_duty)
@@ -99,19 +101,34 @@ class Follower:
         """One step of the follow after its GOTO: hold the aim point, then follow the target. '' while it
         goes on, else why it ended (its moves then still run: the supervisor stops them)."""
         now = self.mount.time.now()
-        if follow.phase == "waiting" and now + timedelta(seconds=follow.lead_s) >= follow.aim:
+        if follow.phase == "waiting" and now + timedelta(seconds=follow.lead_s) >= follow.aim + self._run_up(follow):
             follow.phase = "following"
         if now >= follow.leaves:
             return "the pass left the allowed sky"
         try:
             following = follow.phase == "following"
-            return self._steer(follow, follow.target if following else self.held(follow), now, guard)
+            return self._steer(follow, follow.target if following else self.held(follow), now, guard,
+                               run_up=follow.leg == 2 and not following)
         except ValueError as exc:
             return f"the target cannot be placed: {exc}"
         except (LinkError, ProtocolError, MountReplyError) as exc:
             return f"the mount did not take a speed change: {exc}"
 
-    def _steer(self, follow: Follow, target: Target, now: datetime, guard: Callable[[], bool]) -> str:
+    @staticmethod
+    def _run_up(follow: Follow) -> timedelta:
+        """After a flip the target passes the waiting mount fast (near the meridian, often near the zenith):
+        each axis ramps up to the target's speed centred on the instant it arrives (``_steer``'s run-up),
+        so the error is paid when the mount is at speed; this is half the longest ramp."""
+        if follow.leg != 2:
+            return timedelta(0)
+        _, _, v_ra, v_dec = _rates(follow.target, follow.aim)
+        return timedelta(seconds=max(abs(v_ra), abs(v_dec)) / (2.0 * MAX_SPEED_STEP_DEG_S2))
+
+    def _steer(self, follow: Follow, target: Target, now: datetime, guard: Callable[[], bool],
+               run_up: bool = False) -> str:
+        """Give each axis its speed toward ``target`` (module docstring). ``run_up`` (waiting after a flip):
+        an axis whose ramp to the target's speed at the aim instant must begin (half the ramp before it)
+        is given that speed alone, so it is at speed and on the target as the target arrives."""
         position = self.mount.position()
         if position is None:
             return ""
@@ -127,8 +144,14 @@ class Follower:
         mount_ra = position[0] * 15.0 + follow.speeds[0] * follow.lead_s
         mount_dec = position[1] + follow.speeds[1] * follow.lead_s
         error_ra = sky.wrap_hours_12((ra_deg - mount_ra) / 15.0) * 15.0
-        top = self._top_speed()
-        wanted = (v_ra + error_ra / CORRECTION_S, v_dec + (dec - mount_dec) / CORRECTION_S)
+        top = self.top_speed()
+        wanted = [v_ra + error_ra / CORRECTION_S, v_dec + (dec - mount_dec) / CORRECTION_S]
+        if run_up:
+            arriving = _rates(follow.target, follow.aim)[2:]
+            for axis in (0, 1):
+                starts = follow.aim - timedelta(seconds=abs(arriving[axis]) / (2.0 * MAX_SPEED_STEP_DEG_S2))
+                if ahead >= starts:
+                    wanted[axis] = arriving[axis]
         for axis in (0, 1):
             speed = _limited(wanted[axis], follow.speeds[axis], dt, top)
             if abs(speed - follow.speeds[axis]) >= SPEED_STEP_DEG_S or (speed == 0.0) != (follow.speeds[axis] == 0.0):

@@ -85,13 +85,26 @@ class Follow:
     enters: datetime  # the target enters the allowed sky
     aim: datetime  # the point the mount waits at: the target's place then (a little inside the allowed sky)
     leaves: datetime  # the follow ends: the target leaves the allowed sky (or the side's reach)
-    phase: str = "aiming"  # aiming (the GOTO), waiting (holding the aim point), following, ended
+    # A planned meridian flip (telescope/passes.py FlipLeg): at ``flip_at`` a GOTO to where the target will
+    # be at ``resumes`` takes the mount to ``flip_side`` ("pierEast"/"pierWest"); None: one leg only.
+    flip_at: datetime | None = None
+    resumes: datetime | None = None
+    flip_side: str = ""
+    # Why a GOTO to (RA h, Dec deg) landing in the given seconds is refused (the one GoTo limit check), or None.
+    blocked: Callable[[float, float, float], str | None] = lambda ra, dec, slew_s: None
+    # aiming (the GOTO), waiting (holding the aim point), following, flipping (the flip's stop and GOTO), ended
+    phase: str = "aiming"
     ended: str = ""  # why it ended ('' while it runs)
+    leg: int = 1  # 2 once the flip has begun
+    goto_sent: float | None = None  # mount time the GOTO of this leg was written (None: not yet)
+    goto_busy: bool = False  # the mount's flags have shown that GOTO running
+    flip_deadline: float = 0.0  # mount time after which a flip GOTO refused as "braking" (e3) is given up
     lead_s: float = INITIAL_LEAD_S
     speeds: list[float] = field(default_factory=lambda: [0.0, 0.0])  # sky deg/s sent: RA (+ east), Dec
     error_deg: float | None = None  # the last pointing error
     acquired: datetime | None = None
-    squares: float = 0.0  # of the errors after acquisition (deg²)
+    reacquired: datetime | None = None  # the second leg's acquisition after a flip
+    squares: float = 0.0  # of the errors after acquisition (deg²), re-acquisition after a flip left out
     samples: int = 0
     worst_deg: float = 0.0
 
@@ -99,11 +112,18 @@ class Follow:
     def rms_deg(self) -> float | None:
         return math.sqrt(self.squares / self.samples) if self.samples else None
 
+    @property
+    def shown_phase(self) -> str:
+        """The phase as the page and the Action say it: the flip names the side it goes to."""
+        return f"flipping to {self.flip_side}" if self.phase == "flipping" else self.phase
+
     def note_error(self, now: datetime, error_deg: float) -> None:
         self.error_deg = error_deg
         if self.acquired is None and error_deg <= ACQUIRED_DEG:
             self.acquired = now
-        if self.acquired is not None:
+        if self.leg == 2 and self.reacquired is None and error_deg <= ACQUIRED_DEG:
+            self.reacquired = now
+        if self.acquired is not None and (self.leg == 1 or self.reacquired is not None):
             self.squares += error_deg * error_deg
             self.samples += 1
             self.worst_deg = max(self.worst_deg, error_deg)

@@ -420,6 +420,7 @@ class MotionSupervisor:
                 self._withdraw(motion)
                 raise InvalidOperation(f"{follow.name}: {exc}") from exc
             motion.landing = Landing(False, ra % 24.0, 0.0, dec, False)
+            follow.goto_sent = self.mount.monotonic()
             self._send_goto(motion, ra, dec)
         return motion
 
@@ -639,25 +640,95 @@ class MotionSupervisor:
         self.lander.arrived(motion, now)
 
     def _tick_follow(self, motion: Motion, follow: Follow, now: float, state: MountState) -> None:
-        """A follow's phases (follow.py): the slew to the entry point ends as any GOTO's does (the flags),
-        then the follower steers until the pass, the limits or a failure end it."""
-        if follow.phase == "aiming":
-            if self.mount.time.now() >= follow.leaves:
-                self._end_following(motion, follow, "the pass ended before the slew to it did", now)
-                return
-            if state.status_time is None or state.status_time <= motion.started or state.status is None:
-                return
-            if state.status.slewing:
-                motion.saw_busy = True
-            elif motion.saw_busy or state.status_time - motion.started >= STATUS_LAG_S:
-                follow.phase = "waiting"
+        """A follow's phases (follow.py): a GOTO (to the entry point, or the flip's) ends as any GOTO's does
+        (the flags), then the follower steers until the pass, the limits or a failure end it, or the
+        planned flip begins (where the first leg ends, or sooner if the meridian limit would stop it)."""
+        if follow.phase in ("aiming", "flipping"):
+            why = self._tick_follow_goto(motion, follow, now, state)
+            if why:
+                self._end_following(motion, follow, why, now)
             return
-        why = self.follower.tick(follow, state, self.stops.guard(motion.generation))
+        flip_due = (follow.phase == "following" and follow.leg == 1 and follow.flip_at is not None
+                    and self.mount.time.now() >= follow.flip_at)
+        why = "" if flip_due else self.follower.tick(follow, state, self.stops.guard(motion.generation))
         if not why and follow.phase == "following":
             reason = self.limits.reached(dict(enumerate(follow.speeds)), state)
+            if follow.leg == 1 and follow.flip_at is not None and (flip_due or reason.startswith("meridian")):
+                self._begin_flip(motion, follow, now)
+                return
             why = f"it would cross the {reason}" if reason else ""
         if why:
             self._end_following(motion, follow, why, now)
+
+    def _tick_follow_goto(self, motion: Motion, follow: Follow, now: float, state: MountState) -> str:
+        """The GOTO of a leg: sent (the flip's, once the axes have braked), then watched until the flags
+        show it over, when the mount waits for the target. '' while it goes on, else why the follow ends."""
+        if self.mount.time.now() >= follow.leaves:
+            return "the pass ended before the slew to it did"
+        if follow.goto_sent is None:
+            return self._send_flip(motion, follow, now)
+        if state.status_time is None or state.status_time <= follow.goto_sent or state.status is None:
+            return ""
+        if state.status.slewing:
+            follow.goto_busy = True
+        elif follow.goto_busy or state.status_time - follow.goto_sent >= STATUS_LAG_S:
+            follow.phase = "waiting"
+        return ""
+
+    def _begin_flip(self, motion: Motion, follow: Follow, now: float) -> None:
+        """End the first leg: stop the axes' moves (:Q#, the generation unchanged so the flip's GOTO may
+        follow) and let them brake; ``_send_flip`` sends the GOTO once they have."""
+        speed = max(abs(v) for v in follow.speeds)
+        try:
+            self.mount.stop()
+        except (LinkError, ProtocolError) as exc:
+            self._end_following(motion, follow, f"the axes did not take the stop before the flip: {exc}", now)
+            return
+        with self._lock:
+            if self.motion is not motion or follow.phase != "following":
+                return  # a stop or a park ended it meanwhile
+            follow.phase = "flipping"
+            follow.leg = 2
+            follow.speeds = [0.0, 0.0]
+            follow.goto_sent = None
+            follow.goto_busy = False
+            follow.aim = follow.resumes or follow.aim
+            follow.flip_deadline = now + (speed / DECELERATION_DEG_S2 + BRAKED_WITHIN_S) * self.mount.clock_rate
+        log.info("%s: first leg ended; flipping to %s to wait at %s", follow.name, follow.flip_side, follow.aim)
+
+    def _send_flip(self, motion: Motion, follow: Follow, now: float) -> str:
+        """The flip's GOTO, through the one limit check of any GoTo, to where the target will be when the
+        mount waits for it (held fixed to the ground, as at the start). Sent again on the next tick while
+        the mount still brakes from the first leg (``e3#``). '' while it goes on, else why it ended."""
+        landing_s = max(0.0, (follow.aim - self.mount.time.now()).total_seconds())
+        try:
+            self.interlock.require("the flip's GOTO")
+        except AlpacaError as exc:
+            return exc.message
+        try:
+            ra, dec = self.follower.aim_point(follow, landing_s)
+        except ValueError as exc:
+            return f"the target cannot be placed: {exc}"
+        blocked = follow.blocked(ra, dec, landing_s)
+        if blocked:
+            return f"the flip's GOTO was refused: target is {blocked}"
+        try:
+            current, safe = self.stops.guard(motion.generation), self.interlock.guard()
+            self.mount.goto(ra, dec, guard=lambda: current() and safe())
+        except MotionCancelled:
+            return ""  # a stop came first: it ends the motion
+        except MountReplyError as exc:
+            if exc.code == 3 and now < follow.flip_deadline:
+                return ""  # still braking from the first leg
+            return f"the mount refused the flip's GOTO: {exc}"
+        except (LinkError, ProtocolError) as exc:
+            return f"the flip's GOTO failed: {exc}"
+        with self._lock:
+            if self.motion is motion:
+                motion.landing = Landing(False, ra % 24.0, 0.0, dec, False)
+                follow.goto_sent = self.mount.monotonic()
+        self._notify()
+        return ""
 
     def _end_following(self, motion: Motion, follow: Follow, why: str, now: float) -> None:
         """Stop the axes and let the motion settle like a stop (Slewing true until at rest)."""

@@ -357,7 +357,10 @@ def _read_satellite(telescope: ActionDevice) -> Reply:
                       "error_arcmin": progress.error_arcmin, "rms_arcmin": progress.rms_arcmin,
                       "worst_arcmin": progress.worst_arcmin,
                       "acquired": progress.acquired.isoformat() if progress.acquired else None,
-                      "lead_s": progress.lead_s})
+                      "lead_s": progress.lead_s,
+                      "flip_at": progress.flip_at.isoformat() if progress.flip_at else None,
+                      "resumes": progress.resumes.isoformat() if progress.resumes else None,
+                      "reacquired": progress.reacquired.isoformat() if progress.reacquired else None})
     return reply
 
 

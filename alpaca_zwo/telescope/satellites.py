@@ -26,7 +26,7 @@ from ..motion.kinds import Follow, MotionKind
 from ..mount.operations import Mount
 from .orbits import Tle, parse_tles
 from .passes import AllowedSky, Pass, passes
-from .pointing import MountAltitudeLimits
+from .pointing import MountAltitudeLimits, goto_blocked
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +59,9 @@ class Progress:
     worst_arcmin: float | None
     acquired: datetime | None
     lead_s: float
+    flip_at: datetime | None  # a planned meridian flip: the first leg ends (None: one leg)
+    resumes: datetime | None  # ... and the second leg's follow starts
+    reacquired: datetime | None  # the second leg's acquisition (its figures count from here)
 
 
 def _arcmin(degrees: float | None) -> float | None:
@@ -143,7 +146,8 @@ class Satellites:
 
     def sky(self) -> AllowedSky:
         """The site, the limits and the meridian rule the plans are made under, as they are now."""
-        return AllowedSky(self._settings(), self._mount_limits(), self._flip_line_deg())
+        return AllowedSky(self._settings(), self._mount_limits(), self._flip_line_deg(),
+                          self._motion.follower.top_speed())
 
     def passes(self, tle: Tle, hours: float = 24.0, start: datetime | None = None) -> list[Pass]:
         return passes(tle, self.sky(), start or self._mount.time.now(), hours)
@@ -166,10 +170,12 @@ class Satellites:
         chosen = found[0]
         leaves = chosen.leaves
         altaz = self._mount.state.altaz
-        if not altaz and chosen.side.until is not None:
-            leaves = chosen.side.until
+        # A pass under way is planned from now (``passes``): its first leg starts here.
+        flip = None if altaz else chosen.side.flip
+        if not altaz:
+            leaves = chosen.side.follow_until or leaves
         aim = self._aim(tle, where, chosen, max(now, chosen.enters), leaves)
-        if aim >= leaves:
+        if aim >= leaves or (flip is not None and aim >= flip.flip_at):
             raise InvalidOperation(f"{tle.name}: what is left of the pass is too short to follow")
         site = self._settings().site
 
@@ -177,7 +183,15 @@ class Satellites:
             spot = where.place(tle, when)
             return spot.ra_hours, spot.dec_deg
 
-        follow = Follow(tle.name, target, chosen.enters, aim, leaves)
+        def blocked(ra: float, dec: float, slew_s: float) -> str | None:
+            """The one limit check of a GoTo (``pointing.goto_blocked``), for the flip's GOTO."""
+            lst = sky.local_sidereal_time(self._mount.time.now(), self._settings().site.longitude)
+            verdict = goto_blocked(self._settings(), self._mount_limits(), lst, ra, dec, slew_s)
+            return None if verdict is None else verdict.detail
+
+        follow = Follow(tle.name, target, chosen.enters, aim, leaves, blocked=blocked)
+        if flip is not None:
+            follow.flip_at, follow.resumes, follow.flip_side = flip.flip_at, flip.resumes, side_name(flip.side)
         self._motion.follow(follow)
         self._follow = follow
         log.info("following %s from %s to %s (site %.3f, %.3f)", tle.name, aim, leaves, site.latitude,
@@ -205,10 +219,10 @@ class Satellites:
         follow = self._follow
         if follow is None:
             return None
-        return Progress(follow.name, follow.phase, follow.ended, follow.enters, follow.leaves,
+        return Progress(follow.name, follow.shown_phase, follow.ended, follow.enters, follow.leaves,
                         _arcmin(follow.error_deg), _arcmin(follow.rms_deg),
                         _arcmin(follow.worst_deg if follow.samples else None), follow.acquired,
-                        round(follow.lead_s, 3))
+                        round(follow.lead_s, 3), follow.flip_at, follow.resumes, follow.reacquired)
 
 
 def side_name(side: sky.PierSide) -> str:

@@ -83,11 +83,20 @@ RigFactory = Callable[..., Rig]
 def rig_factory(server_factory: ServerFactory, tmp_path: Path) -> Iterator[RigFactory]:
     """Start a server with ``make_settings(**sections)``, record its wire and connect the main client."""
 
-    def start(*, connect: bool = True, usb: bool = False, **sections: Any) -> Rig:
+    def start(*, connect: bool = True, usb: bool = False, start_utc: datetime | None = None,
+              **sections: Any) -> Rig:
         """``usb=True``: the mount on a pseudo-terminal paced at 9600 baud, opened through a stable
-        symlink like a udev name, instead of the built-in emulator's TCP port (its WiFi)."""
+        symlink like a udev name, instead of the built-in emulator's TCP port (its WiFi). ``start_utc``:
+        a mount on its own TCP port whose universe starts then, in real time, its clock set (a satellite's
+        pass from shipped elements; give ``time=TimeSettings(source="mount")`` so the server takes it)."""
         overrides = None
         external = None
+        if start_utc is not None:
+            model = MountModel(ScaledClock(1.0, start_utc=start_utc))
+            model.initialize()  # its clock set, as by the hand controller that last ran it
+            external = EmulatorServer(model, host="127.0.0.1", port=0, baud=0).start()
+            externals.append(external)
+            overrides = Overrides(device_url=f"socket://127.0.0.1:{external.port}")
         if usb:
             external = EmulatorServer(MountModel(ScaledClock()), port=0, baud=9600, pty=True, tcp=False,
                                       pty_link=str(tmp_path / "ttyACM-am5")).start()

@@ -85,3 +85,76 @@ def test_a_low_pass_is_followed_within_an_arcminute_and_a_stop_ends_it(tmp_path:
         wait_until(lambda: not rig.motion.slewing(), timeout=15.0)
         still = rig.model.snapshot()
         assert still["moves_deg_s"] == [None, None] and still["slew"] is None
+
+
+def _judge(rig: Rig, seconds: float) -> list[float]:
+    """The pointing error (arcmin) of the tube against SGP4 every 0.1 s for ``seconds``, Slewing true
+    throughout."""
+    errors = []
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        ra, dec = rig.model.position()
+        spot = AllowedSky(rig.settings, None).place(ISS, rig.model.clock.now())
+        errors.append(sky.angular_separation(ra, dec, spot.ra_hours, spot.dec_deg) * 60.0)
+        assert rig.motion.slewing()
+        time.sleep(0.1)
+    return errors
+
+
+def test_a_high_pass_flips_mid_pass_and_follows_its_second_leg(tmp_path: Path) -> None:
+    """A high pass: pierEast cannot follow past 15° before the meridian, so the plan flips to pierWest; the
+    mount follows the first leg, says it flips, GOTOs to where the satellite will be, waits, and follows
+    the second leg within the goals once re-acquired."""
+    planned = passes(ISS, AllowedSky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
+    high = next(p for p in planned if p.max_altitude > 80.0 and p.side.flip is not None)
+    # The universe starts 75 s before the planned flip: the pass is under way, planned from there.
+    clock = ScaledClock(1.0, start_utc=high.side.flip.flip_at - timedelta(seconds=75))  # type: ignore[union-attr]
+    with parts_rig(tmp_path, clock=clock) as rig:
+        rig.mount.connect()
+        satellites = _satellites(rig, tmp_path)
+        followed = satellites.follow(ISS)
+        flip = followed.side.flip
+        assert flip is not None and followed.side.side is sky.PierSide.EAST and flip.side is sky.PierSide.WEST
+        wait_until(lambda: satellites.progress().acquired is not None, timeout=60.0)  # type: ignore[union-attr]
+        assert rig.mount.state.side is sky.PierSide.EAST
+        flipping = wait_until(lambda: (p := satellites.progress()) and p.phase.startswith("flipping") and p,
+                              timeout=60.0, interval=0.1)
+        assert flipping.phase == "flipping to pierWest" and rig.motion.slewing()
+        assert abs((rig.model.clock.now() - flip.flip_at).total_seconds()) < 3.0
+        wait_until(lambda: satellites.progress().phase == "waiting", timeout=flip.gap_s,  # type: ignore[union-attr]
+                   interval=0.1)
+        assert rig.mount.state.side is sky.PierSide.WEST and rig.motion.slewing()
+        assert rig.model.clock.now() < flip.resumes  # the flip was done before the satellite got there
+        second = wait_until(lambda: (p := satellites.progress()) and p.reacquired and p, timeout=30.0)
+        assert (second.reacquired - flip.resumes).total_seconds() < 20.0
+        assert satellites.progress().phase == "following"  # type: ignore[union-attr]
+        errors = _judge(rig, JUDGED_S)
+        rms = math.sqrt(sum(e * e for e in errors) / len(errors))
+        assert rms < 1.0, (rms, max(errors))
+        assert max(errors) < 3.0, errors
+        progress = satellites.progress()
+        assert progress is not None and progress.rms_arcmin is not None and progress.rms_arcmin < 1.0
+        rig.motion.abort()
+        assert satellites.progress().ended == "stopped"  # type: ignore[union-attr]
+        wait_until(lambda: not rig.motion.slewing(), timeout=15.0)
+
+
+def test_a_stop_during_the_flip_ends_the_follow_and_the_mount_comes_to_rest(tmp_path: Path) -> None:
+    """AbortSlew while the flip's GOTO runs: the follow ends, no second leg starts, the mount is at rest."""
+    planned = passes(ISS, AllowedSky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
+    high = next(p for p in planned if p.max_altitude > 80.0 and p.side.flip is not None)
+    clock = ScaledClock(1.0, start_utc=high.side.flip.flip_at - timedelta(seconds=45))  # type: ignore[union-attr]
+    with parts_rig(tmp_path, clock=clock) as rig:
+        rig.mount.connect()
+        satellites = _satellites(rig, tmp_path)
+        satellites.follow(ISS)
+        wait_until(lambda: satellites.progress().phase.startswith("flipping")  # type: ignore[union-attr]
+                   and rig.model.snapshot()["slew"] is not None, timeout=90.0, interval=0.1)
+        assert rig.motion.slewing()
+        rig.motion.abort()
+        progress = satellites.progress()
+        assert progress is not None and progress.phase == "ended" and progress.ended == "stopped"
+        wait_until(lambda: not rig.motion.slewing(), timeout=30.0)
+        still = rig.model.snapshot()
+        assert still["moves_deg_s"] == [None, None] and still["slew"] is None
+        assert satellites.progress().phase == "ended"  # type: ignore[union-attr]

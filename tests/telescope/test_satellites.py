@@ -20,7 +20,15 @@ from alpaca_zwo import sky
 from alpaca_zwo._exceptions import InvalidValue
 from alpaca_zwo.config.settings import LimitSettings
 from alpaca_zwo.telescope.orbits import STALE_DAYS, parse_tles, place
-from alpaca_zwo.telescope.passes import PASS_STEP_S, AllowedSky, passes
+from alpaca_zwo.telescope.passes import (
+    FLIP_MARGIN_S,
+    MIN_SECOND_LEG_S,
+    PASS_STEP_S,
+    TOP_SPEED_DEG_S,
+    AllowedSky,
+    flip_seconds,
+    passes,
+)
 from alpaca_zwo.telescope.pointing import MountAltitudeLimits
 from tests.conftest import make_settings
 from tests.support.sites import EQUATOR, NORTH, SITE_IDS, SITES, SYDNEY, Site
@@ -158,6 +166,64 @@ def test_the_side_plan_keeps_one_side_or_says_where_it_ends(site: Site) -> None:
                 assert ha_deg >= -sky.FLIP_ZONE_DEG - 1e-3
         if p.side.until is not None:
             assert p.enters < p.side.until < p.leaves and p.side.why
+
+
+def _ha_deg(site: Site, when: datetime) -> float:
+    return sky.wrap_hours_12(place(ISS, site.latitude, site.longitude, site.elevation, when).ha_hours) * 15.0
+
+
+@pytest.mark.parametrize("site", SITES, ids=SITE_IDS)
+def test_a_pass_one_side_cannot_follow_gets_a_flip_and_a_second_leg(site: Site) -> None:
+    """Where the first side stops holding, the plan flips to the other: the first leg ends there, the
+    second starts no sooner than the flip's predicted GOTO (top speed, acceleration) and its margin, on
+    the side the mount's GOTO rule gives there, and holds to its end; a leg under 20 s is not planned."""
+    where = _sky(site)
+    planned = passes(ISS, where, ISS.epoch, hours=24.0, limit=50)
+    flipped = [p for p in planned if p.side.flip is not None]
+    assert flipped, [p.side for p in planned]
+    for p in flipped:
+        first, flip = p.side, p.side.flip
+        assert flip is not None and first.until == flip.flip_at and first.why
+        assert {first.side, flip.side} == {sky.PierSide.EAST, sky.PierSide.WEST}
+        assert p.enters < flip.flip_at < flip.resumes < (flip.until or p.leaves) <= p.leaves
+        before, after = (place(ISS, site.latitude, site.longitude, site.elevation, t)
+                         for t in (flip.flip_at, flip.resumes))
+        predicted = flip_seconds(before, after, site.latitude, TOP_SPEED_DEG_S)
+        assert predicted > 30.0  # half a turn of the RA axis at 6°/s, accelerating at 3°/s²
+        assert predicted + FLIP_MARGIN_S <= flip.gap_s < predicted + FLIP_MARGIN_S + PASS_STEP_S + 0.01
+        assert ((flip.until or p.leaves) - flip.resumes).total_seconds() >= MIN_SECOND_LEG_S
+        assert sky.goto_pier_side(after.ha_hours, first.side, 0.0) is flip.side
+        for t in (flip.resumes + ((flip.until or p.leaves) - flip.resumes) * (i / 20) for i in range(20)):
+            ha_deg = _ha_deg(site, t)
+            assert ha_deg >= -sky.FLIP_ZONE_DEG if flip.side is sky.PierSide.EAST else ha_deg < 0.0
+    for p in planned:
+        if p.side.until is not None and p.side.flip is None:
+            assert "no flip is planned" in (p.side.why or "") or p.side.side is not sky.goto_pier_side(
+                p.enter_place.ha_hours, sky.PierSide.UNKNOWN, 0.0)
+
+
+def test_a_high_pass_in_the_north_follows_east_then_west_past_its_highest_point() -> None:
+    """The ISS climbs from the north-west over the meridian: pierEast until 15° east of the meridian,
+    the flip, then pierWest to the end of the pass, its highest point in the gap or before it."""
+    high = max(passes(ISS, _sky(NORTH), ISS.epoch, hours=24.0, limit=50), key=lambda p: p.max_altitude)
+    assert high.max_altitude > 80.0
+    flip = high.side.flip
+    assert high.side.side is sky.PierSide.EAST and flip is not None and flip.side is sky.PierSide.WEST
+    assert _ha_deg(NORTH, flip.flip_at) == pytest.approx(-sky.FLIP_ZONE_DEG, abs=5.0)
+    assert flip.until is None and high.side.follow_until is None  # followed to where it leaves the sky
+    assert 35.0 < flip.gap_s < 60.0
+    slow = passes(ISS, dataclasses.replace(_sky(NORTH), top_speed_deg_s=TOP_SPEED_DEG_S / 2.0),
+                  high.rise - timedelta(minutes=1), hours=0.2)[0]
+    assert slow.side.flip is not None and slow.side.flip.gap_s > flip.gap_s + 10.0  # heavy-duty: 720×
+
+
+def test_a_flip_that_would_leave_too_little_keeps_one_leg_and_says_why() -> None:
+    planned = passes(ISS, _sky(EQUATOR), ISS.epoch, hours=24.0, limit=50)
+    short = [p for p in planned if p.side.flip is None and p.side.until is not None]
+    assert short
+    for p in short:
+        assert p.side.why is not None and "no flip is planned" in p.side.why, p.side.why
+        assert p.side.follow_until == p.side.until
 
 
 def test_high_passes_need_the_keyhole_and_low_ones_do_not() -> None:
