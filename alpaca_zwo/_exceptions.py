@@ -147,7 +147,8 @@ class SettingsNotSaved(DriverError):
 #: The one table of the mount's ``eN#`` refusals as a client is told them: the ASCOM error and plain words
 #: that say what to do. The codes are the vendor's v1.7 table, confirmed on the wire for 2, 6, 7, 11 and 14
 #: (real-transcripts-1.8.8.md §2 item 10: ``e7#`` from an unsynchronised AM3 and AM5, ``e6#`` at ~9°
-#: altitude, ``e2#`` for ``:Sd`` with 60 seconds, ``e11`` for ``:CM#`` at home, ``e14#`` to every motion
+#: altitude, ``e2#`` for ``:Sd`` with 60 seconds, ``e9``/``e11``/``e12`` for ``:CM#`` across the meridian, at
+#: home and over 20° away, ``e14#`` to every motion
 #: while parked). ``{request}`` is the command the mount refused. Codes not listed stay a DriverError
 #: (ERR_MOUNT_REFUSED) with the mount's meaning; 3 and 4 ("busy") are worded by :func:`_busy_words`.
 MOUNT_REFUSALS: dict[int, tuple[type[AlpacaError], str]] = {
@@ -160,6 +161,10 @@ MOUNT_REFUSALS: dict[int, tuple[type[AlpacaError], str]] = {
                           "sends them, or check the site on the setup page"),
     11: (InvalidOperation, "the mount refuses a sync at its home position (e11): slew or move away from home "
                            "first, then sync"),
+    9: (InvalidOperation, "the mount refuses a sync on a point across the meridian from where it points (e9): "
+                          "a sync is for a star the telescope is centred on; GoTo the star, centre it, then sync"),
+    12: (InvalidOperation, "the mount refuses a sync more than 20° from where it points (e12): a sync is for a "
+                           "star the telescope is centred on; GoTo the star, centre it, then sync"),
     14: (Parked, "the mount is parked by its own firmware (e14; the ZWO app, ASIAIR or a hand controller parks "
                  "it so, and the park survives power cycles): Unpark first"),
 }

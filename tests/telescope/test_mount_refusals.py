@@ -87,8 +87,21 @@ def test_busy_says_moving_only_when_the_mount_moves() -> None:
 
 
 def test_other_codes_stay_driver_errors_with_the_mounts_meaning() -> None:
-    error: AlpacaError = refusal_error("sync", MountReplyError(":CM#", "e12#", 12, p.ERROR_CODES[12]))
-    assert isinstance(error, DriverError) and p.ERROR_CODES[12] in error.message
+    error: AlpacaError = refusal_error("GOTO", MountReplyError(":MS#", "e10#", 10, p.ERROR_CODES[10]))
+    assert isinstance(error, DriverError) and p.ERROR_CODES[10] in error.message
+
+
+def test_a_sync_far_from_where_the_mount_points_says_goto_and_centre_first(api: Api) -> None:
+    """The mount takes a sync only near where it points (e12 beyond 20°): the words say what a sync is for."""
+    api.ok("Tracking", Tracking=True)
+    api.ok("SlewToCoordinatesAsync", RightAscension=(api.value("SiderealTime") + 1.0) % 24.0, Declination=30.0)
+    wait_until(lambda: not api.value("Slewing"), timeout=60.0, what="the slew's end")
+    before = api.value("RightAscension")
+    reply = api.put("SyncToCoordinates", RightAscension=(before + 2.5) % 24.0, Declination=30.0)
+    assert reply.error == INVALID_OPERATION, reply.body
+    message = reply.body["ErrorMessage"]
+    assert "(e12)" in message and "GoTo the star, centre it, then sync" in message, message
+    assert abs(api.value("RightAscension") - before) < 0.01  # nothing was synced: the position stands
 
 
 def test_a_sync_at_home_is_an_invalid_operation_that_says_move_away(api: Api) -> None:
