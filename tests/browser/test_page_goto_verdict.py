@@ -110,7 +110,7 @@ def test_under_the_mounts_limit_goto_says_when_it_rises_and_becomes_goto_then(
         _put_at(scene, 30.0)
         WebDriverWait(driver, TIMEOUT).until(lambda d: _goto_button(d) == ("GoTo", True))
         WebDriverWait(driver, TIMEOUT).until(lambda d: _sync_button(d) == ("Sync", True, "Sync"))
-        assert driver.find_element(By.ID, "btn-sync").get_attribute("title") is None
+        assert driver.find_element(By.ID, "btn-sync").get_dom_attribute("title") is None
     else:
         # Just under the limit and rising: the card turns reachable and GoTo comes back as the sky turns,
         # on the card's own refresh.
@@ -122,7 +122,7 @@ def test_under_the_mounts_limit_goto_says_when_it_rises_and_becomes_goto_then(
         WebDriverWait(driver, TIMEOUT).until(lambda d: _goto_button(d) == ("GoTo", True))
         assert _sync_button(driver) == ("Sync", True, "Sync")
         sync = driver.find_element(By.ID, "btn-sync")
-        assert sync.get_attribute("title") is None and sync.value_of_css_property("border-top-style") == "solid"
+        assert sync.get_dom_attribute("title") is None and sync.value_of_css_property("border-top-style") == "solid"
         tap(driver, button(driver, "GoTo"))
         WebDriverWait(driver, TIMEOUT).until(
             lambda d: f"GoTo {STAR} started." in d.find_element(By.TAG_NAME, "body").text)
