@@ -130,6 +130,8 @@ class Page:
         the refusal shows beside the buttons. (A star that is down gets neither a GoTo nor a Sync to refuse.)"""
         self.client.action("park")
         wait_until(lambda: self.client.status()["at_park"], 60, "the mount to park")
+        # the page's next poll ends its "Parking at …" line: the view shows the refusal alone
+        WebDriverWait(self.driver, TIMEOUT).until(lambda d: not d.find_element(By.ID, "progress").is_displayed())
         self.find(star)
         self.tap("btn-goto")
         WebDriverWait(self.driver, TIMEOUT).until(
