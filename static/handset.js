@@ -20,6 +20,7 @@
   const RATE_WINDOW_MS = 6000; // the approach rate is measured over this much recent time
   const ARRIVED_DEG = 0.05; // within this of the target at the end = arrived (else: stopped short)
   const KIND_WORDS = { slew: "Slewing to", park: "Parking at", "find home": "Going home to", "slew to alt/az": "Slewing to" };
+  const SYNC_NOT_UP = "Sync needs the telescope centred on it; it is not up";
   const PIER_WORDS = { pierEast: "east (looking west)", pierWest: "west (looking east)", pierUnknown: "unknown" };
 
   const hs = {
@@ -299,8 +300,9 @@
 
   // A target under the allowed sky gets no GoTo that must be refused: the button says when it comes up
   // ("Not up: rises 00:28", the server's words in the site's clock) and takes no tap, and the card's
-  // refresh turns it back into GoTo once it is up. Other refusals (parked, not connected, the mount's
-  // upper limit) keep a GoTo whose refusal says what to do.
+  // refresh turns it back into GoTo once it is up. Sync goes with it: a sync says the telescope is centred
+  // on the target now, which the limits keep it from being while the target is not up. Other refusals
+  // (parked, not connected, the mount's upper limit) keep a GoTo whose refusal says what to do.
   function goButton(o, up) {
     const button = $("btn-goto");
     const notUp = o.not_up;
@@ -308,6 +310,16 @@
     button.textContent = notUp ? notUp.words : "GoTo";
     button.classList.toggle("not-up", Boolean(notUp));
     button.classList.toggle("caution", !up && !notUp);
+    const sync = $("btn-sync");
+    sync.disabled = Boolean(notUp);
+    sync.classList.toggle("not-up", Boolean(notUp));
+    if (notUp) {
+      sync.title = SYNC_NOT_UP;
+      sync.setAttribute("aria-label", SYNC_NOT_UP);
+    } else {
+      sync.removeAttribute("title");
+      sync.removeAttribute("aria-label");
+    }
   }
 
   // ------------------------------------------------------------------ GoTo, Sync, Confirm

@@ -5,9 +5,11 @@ The mount's own altitude limit is set to 15° through the Alpaca Action ``zwo:Al
 or a script would, and Arcturus is put at about 10° rising (the site's longitude chosen for now): the card
 names the mount's limit, and the GoTo button, instead of sending a slew the server must refuse, says when the
 star comes up over that limit in the site's clock ("Not up: rises 21:47") and is disabled: nothing a tap
-could send. On the desktop the card then follows the sky: Arcturus put just under the limit turns
-"reachable" and its button back into GoTo by itself as it rises through it (the emulator's clock runs at
-4x), without a new search, and that GoTo starts.
+could send; Sync beside it is disabled with it, its name saying why (a sync says the telescope is centred
+on the star, which the limits keep it from being). On the phone the star is then put well up: both take a
+tap again. On the desktop the card follows the sky: Arcturus put just under the limit turns "reachable" and
+its buttons back into GoTo and Sync by themselves as it rises through it (the emulator's clock runs at 4x),
+without a new search, and that GoTo starts.
 """
 
 from __future__ import annotations
@@ -60,6 +62,18 @@ def _goto_button(driver: WebDriver) -> tuple[str, bool]:
     return str(words), bool(enabled)
 
 
+SYNC_NOT_UP = "Sync needs the telescope centred on it; it is not up"
+
+
+def _sync_button(driver: WebDriver) -> tuple[str, bool, str]:
+    """The Sync button's words, whether it takes a tap, and its accessible name as a screen reader gives it
+    (aria-label, else its words), read in one step."""
+    words, enabled, label = driver.execute_script(
+        "const b = document.getElementById('btn-sync');"
+        " return [b.textContent, !b.disabled, b.getAttribute('aria-label') || b.textContent];")
+    return str(words), bool(enabled), str(label)
+
+
 @pytest.mark.parametrize("site", [NORTH, SYDNEY], ids=lambda s: s.name)
 @pytest.mark.parametrize("size", ["phone", "desktop"])
 def test_under_the_mounts_limit_goto_says_when_it_rises_and_becomes_goto_then(
@@ -83,18 +97,32 @@ def test_under_the_mounts_limit_goto_says_when_it_rises_and_becomes_goto_then(
         f"{client.api}/object", params={"id": STAR}, timeout=TIMEOUT).json()["not_up"]["words"]), (words, body)
     assert body["not_up"]["rises"][-6:] == body["tonight"]["start"][-6:]  # the clock the card's times are in
     assert driver.find_elements(By.XPATH, "//button[normalize-space()='GoTo']") == []
+    # Sync goes with GoTo: no tap, dashed like it, and its name says why.
+    assert _sync_button(driver) == ("Sync", False, SYNC_NOT_UP)
+    sync = driver.find_element(By.ID, "btn-sync")
+    assert sync.get_attribute("title") == SYNC_NOT_UP
+    assert sync.value_of_css_property("border-top-style") == "dashed"
     driver.save_screenshot(f"/tmp/alpaca-zwo-not-up-{site.name}-{size}.png")
     assert model.snapshot()["slew"] is None and not client.value("slewing")
 
-    if size == "desktop":
+    if size == "phone":
+        # Well up: GoTo and Sync both take a tap again, on the card's own refresh.
+        _put_at(scene, 30.0)
+        WebDriverWait(driver, TIMEOUT).until(lambda d: _goto_button(d) == ("GoTo", True))
+        WebDriverWait(driver, TIMEOUT).until(lambda d: _sync_button(d) == ("Sync", True, "Sync"))
+        assert driver.find_element(By.ID, "btn-sync").get_dom_attribute("title") is None
+    else:
         # Just under the limit and rising: the card turns reachable and GoTo comes back as the sky turns,
         # on the card's own refresh.
         _put_at(scene, 14.85)
         WebDriverWait(driver, TIMEOUT).until(  # the card at the new place (14.8° or 14.9°), still blocked
             lambda d: _fact(d, "Alt / Az").startswith("+14\u00b0") and _limits_line(d) == LIMIT_WORDS)
-        assert _goto_button(driver)[0].startswith("Not up: rises ")
+        assert _goto_button(driver)[0].startswith("Not up: rises ") and not _sync_button(driver)[1]
         WebDriverWait(driver, 60).until(lambda d: _limits_line(d) == "reachable: above the horizon and limits")
         WebDriverWait(driver, TIMEOUT).until(lambda d: _goto_button(d) == ("GoTo", True))
+        assert _sync_button(driver) == ("Sync", True, "Sync")
+        sync = driver.find_element(By.ID, "btn-sync")
+        assert sync.get_dom_attribute("title") is None and sync.value_of_css_property("border-top-style") == "solid"
         tap(driver, button(driver, "GoTo"))
         WebDriverWait(driver, TIMEOUT).until(
             lambda d: f"GoTo {STAR} started." in d.find_element(By.TAG_NAME, "body").text)

@@ -202,6 +202,7 @@ def test_search_list_and_the_sun_moves_nothing_without_confirm(server_factory: S
     assert "never rises here" in shown(driver, "selection")
     goto = driver.find_element(By.ID, "btn-goto")
     assert goto.text == "Not up: never rises here" and not goto.is_enabled()
+    assert not driver.find_element(By.ID, "btn-sync").is_enabled()  # nor a Sync: it cannot be centred on it
     assert model.snapshot()["slew"] is None
 
 

@@ -125,16 +125,21 @@ class Page:
         actions.perform()
         WebDriverWait(self.driver, TIMEOUT).until(lambda d: d.find_element(By.ID, "sel-name").text == star)
 
-    def refused_sync(self, star: str) -> None:
-        """Choose a star that never rises here (its GoTo says "Not up"), tap Sync and Confirm: the mount
-        refuses it (far from where it points, or not tracking), and the refusal shows beside the buttons."""
+    def refused_goto(self, star: str) -> None:
+        """Park the mount, choose a star that is up and tap GoTo: the server refuses it (unpark first), and
+        the refusal shows beside the buttons. (A star that is down gets neither a GoTo nor a Sync to refuse.)"""
+        self.client.action("park")
+        wait_until(lambda: self.client.status()["at_park"], 60, "the mount to park")
+        # the page's next poll ends its "Parking at …" line: the view shows the refusal alone
+        WebDriverWait(self.driver, TIMEOUT).until(lambda d: not d.find_element(By.ID, "progress").is_displayed())
         self.find(star)
-        assert self.driver.find_element(By.ID, "btn-goto").text == "Not up: never rises here"
-        self.tap("btn-sync")
-        WebDriverWait(self.driver, TIMEOUT).until(lambda d: d.find_element(By.ID, "btn-confirm").is_displayed())
-        self.tap("btn-confirm")
+        self.tap("btn-goto")
         WebDriverWait(self.driver, TIMEOUT).until(
-            lambda d: any(f"Sync on {star} refused" in e for e in self.errors()))
+            lambda d: any(f"GoTo {star} refused" in e for e in self.errors()))
+
+    def unpark(self) -> None:
+        self.client.action("unpark")
+        wait_until(lambda: not self.client.status()["at_park"], TIMEOUT, "the mount to unpark")
 
     def messages(self) -> str:
         return str(self.js("return document.getElementById('messages').innerText"))
@@ -178,9 +183,9 @@ def test_stop_never_moves_and_is_never_covered(server_factory: ServerFactory, br
     # the progress and arrival lines and the messages push no control: the jog pad stays where it was
     assert len(set(jog.values())) == 1, jog
 
-    page.refused_sync("Canopus")  # never rises at 51.5° N
-    seen["after a refused Sync"] = page.stop_box()
-    page.assert_stop_uncovered("after a refused Sync")
+    page.refused_goto("Vega")  # the mount parked
+    seen["after a refused GoTo"] = page.stop_box()
+    page.assert_stop_uncovered("after a refused GoTo")
     page.shot("stop-refused")
 
     page.js("document.getElementById('sky').scrollIntoView({block: 'start'})")
@@ -340,8 +345,9 @@ def test_night_mode_is_red_light_only_in_every_view(server_factory: ServerFactor
     WebDriverWait(browser, TIMEOUT).until(lambda d: field.get_attribute("aria-expanded") == "true")
     views["matches"] = page.shot("night-matches")
     field.send_keys(Keys.ESCAPE)
-    page.refused_sync("Canopus")  # a refusal beside the buttons, and "Not up" on GoTo
+    page.refused_goto("Altair")  # a refusal beside the buttons
     views["error"] = page.shot("night-error")
+    page.unpark()
     WebDriverWait(browser, TIMEOUT).until(lambda d: d.find_elements(By.CSS_SELECTOR, "#sky-chart .sky-body.sun"))
     page.tap_on_chart("Vega")
     views["chart"] = page.shot("night-chart")
