@@ -300,7 +300,8 @@ PORT_CONFIGS: dict[str, dict[str, Any]] = {
 
 @contextmanager
 def _utc_zone() -> Iterator[None]:
-    """The port starts with the host's time zone: UTC here, so the capture is the same on every host."""
+    """The host on UTC, so the capture is the same on every host: the port starts with the mount's zone, the
+    site's (Sydney +11 in March), and falls back to the host's only where the site's is unknown."""
     saved = os.environ.get("TZ")
     os.environ["TZ"] = "UTC"
     time.tzset()
