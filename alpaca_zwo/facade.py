@@ -45,7 +45,6 @@ from .mount.state import MountSettings, MountState
 from .mount.timekeeping import ClockView
 from .sky import SIDEREAL_DEG_S, PierSide
 from .telescope.passes import Pass
-from .telescope.pointing import MOUNT_UPPER
 from .telescope.satellites import side_name
 from .telescope.stored_settings import CHECKS as STORED_CHECKS
 from .zwo.link import LinkCounters, LinkStatus, Priority, TraceEntry
@@ -419,7 +418,7 @@ class DeviceFacade:
         if blocked is not None:
             return {"reachable": False, "limit": blocked.limit, "state": None, "says": blocked.says,
                     "detail": f"target is {blocked.detail}", "altitude": blocked.altitude,
-                    "azimuth": blocked.azimuth, "after_s": blocked.after_s, "down": blocked.limit != MOUNT_UPPER}
+                    "azimuth": blocked.azimuth, "after_s": blocked.after_s, "down": blocked.floor}
         verdict: dict[str, Any] = {"reachable": True, "limit": None, "state": None, "down": False,
                                    "says": "reachable: above the horizon and limits", "detail": None}
         try:
@@ -438,7 +437,7 @@ class DeviceFacade:
         the floors GoTo's own check knows (the server's horizon and minimum altitude, the mount's horizon and
         lower altitude limit), not above the mount's upper limit. The page's "Not up: rises 00:28"."""
         blocked = self._telescope.goto_limit(ra_hours, dec_deg, travel_deg=0.0, at=when)
-        return blocked is not None and blocked.limit != MOUNT_UPPER
+        return blocked is not None and blocked.floor
 
     def destination_side_of_pier(self, ra_hours: float, dec_deg: float) -> int | None:
         """DestinationSideOfPier for the mount's-frame RA/Dec; None while not connected."""

@@ -48,6 +48,11 @@ class Blocked:
     azimuth: float
     after_s: float  # seconds from now when it is out: 0 now, else while the slew would still run
 
+    @property
+    def floor(self) -> bool:
+        """The target is under the allowed sky (every limit but the mount's upper one): it must rise first."""
+        return self.limit != MOUNT_UPPER
+
 
 def check_equatorial(ra: float, dec: float) -> None:
     if not (math.isfinite(ra) and 0.0 <= ra < 24.0):
@@ -107,7 +112,7 @@ def _blocked_at(settings: Settings, mount: MountAltitudeLimits | None, lst: floa
         return None
     if after_s <= 0.0:
         return blocked
-    verb = "climbs" if blocked.limit == MOUNT_UPPER else "sinks"
+    verb = "sinks" if blocked.floor else "climbs"
     lands = f"before the slew lands (in about {math.ceil(after_s)} s)"
     return Blocked(blocked.limit, f"{verb} {blocked.says} {lands}", f"{blocked.detail} {lands}",
                    altitude, azimuth, after_s)
