@@ -94,14 +94,20 @@ def _judge(rig: Rig, seconds: float) -> list[float]:
     return errors
 
 
+def _before_the_flip(seconds: float) -> ScaledClock:
+    """A universe that starts ``seconds`` before the planned flip of the ISS's first high pass that has one."""
+    planned = passes(ISS, AllowedSky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
+    high = next(p for p in planned if p.max_altitude > 80.0 and p.side.flip is not None)
+    assert high.side.flip is not None
+    return ScaledClock(1.0, start_utc=high.side.flip.flip_at - timedelta(seconds=seconds))
+
+
 def test_a_high_pass_flips_mid_pass_and_follows_its_second_leg(tmp_path: Path) -> None:
     """A high pass: pierEast cannot follow past 15° before the meridian, so the plan flips to pierWest; the
     mount follows the first leg, says it flips, GOTOs to where the satellite will be, waits, and follows
     the second leg within the goals once re-acquired."""
-    planned = passes(ISS, AllowedSky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
-    high = next(p for p in planned if p.max_altitude > 80.0 and p.side.flip is not None)
     # The universe starts 75 s before the planned flip: the pass is under way, planned from there.
-    clock = ScaledClock(1.0, start_utc=high.side.flip.flip_at - timedelta(seconds=75))  # type: ignore[union-attr]
+    clock = _before_the_flip(75.0)
     with parts_rig(tmp_path, clock=clock) as rig:
         rig.mount.connect()
         satellites = _satellites(rig, tmp_path)
@@ -134,9 +140,7 @@ def test_a_high_pass_flips_mid_pass_and_follows_its_second_leg(tmp_path: Path) -
 
 def test_a_stop_during_the_flip_ends_the_follow_and_the_mount_comes_to_rest(tmp_path: Path) -> None:
     """AbortSlew while the flip's GOTO runs: the follow ends, no second leg starts, the mount is at rest."""
-    planned = passes(ISS, AllowedSky(make_settings(), None), ISS.epoch, hours=24.0, limit=50)
-    high = next(p for p in planned if p.max_altitude > 80.0 and p.side.flip is not None)
-    clock = ScaledClock(1.0, start_utc=high.side.flip.flip_at - timedelta(seconds=45))  # type: ignore[union-attr]
+    clock = _before_the_flip(45.0)
     with parts_rig(tmp_path, clock=clock) as rig:
         rig.mount.connect()
         satellites = _satellites(rig, tmp_path)
