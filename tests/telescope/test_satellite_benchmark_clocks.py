@@ -1,4 +1,4 @@
-"""The satellite benchmark voids a run whose clocks stepped apart (benchmarks/satellite.py, ``ClockWatch``).
+"""The satellite benchmark voids a run whose clocks stepped apart (benchmarks/clockwatch.py, ``ClockWatch``).
 
 The benchmark's server runs on this computer's wall clock (libfaketime moves it once, at the start) and the
 emulated universe on the monotonic clock. On 2026-12-02 the virtual machine was paused three times during a
@@ -15,7 +15,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from benchmarks.satellite import CLOCK_STEP_S, ClockWatch
+from benchmarks.clockwatch import CLOCK_STEP_S, ClockWatch
 from tests.support.emulator import EmulatorProcess
 
 
