@@ -20,8 +20,9 @@ clock, the server on this computer's wall clock moved once. A virtual machine pa
 the monotonic clock still and steps the wall clock on resume, and the server then follows where the
 satellite is seconds later than in the emulated sky: its own figure stays good while the measured one is
 tens of arcminutes (2026-12-02: three pauses, 8.8 s in all, made a 14′ RMS second leg). Every sample
-reads the relationship again; a step over ``CLOCK_STEP_S`` is listed in ``clock_steps`` and the run is
-marked void (``void``): run it again. ``--samples`` keeps the samples (``samples.json`` beside the logs).
+reads the relationship again; a step over ``CLOCK_STEP_S`` (benchmarks/clockwatch.py) is listed in
+``clock_steps`` and the run is marked void (``void``): run it again. ``--samples`` keeps the samples
+(``samples.json`` beside the logs).
 
 A pass with a planned meridian flip (an equatorial mount) counts its samples while the follow says
 "following" (not during the flip and the wait); the second leg's own figures count from its re-acquisition.
