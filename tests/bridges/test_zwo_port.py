@@ -8,11 +8,8 @@ drop only the offender while an Alpaca client keeps polling.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import random
-import socket
-import statistics
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -24,60 +21,12 @@ from alpaca.telescope import Telescope as AlpacaTelescope
 from alpaca_zwo import sky
 from alpaca_zwo.config.settings import EmulatorSettings, LimitSettings, ZwoPortSettings
 from alpaca_zwo.server import AlpacaZwoServer
-from alpaca_zwo.zwo import protocol, wire_values
-from alpaca_zwo.zwo.protocol import ReplyKind, reply_complete
+from alpaca_zwo.zwo import wire_values
+from alpaca_zwo.zwo.protocol import ReplyKind
 from tests.conftest import ServerFactory, make_settings
+from tests.support.zwo_client import ZwoClient, offend
 
 SPEED = 10.0  # emulated seconds per real second: GOTOs end quickly
-
-
-class ZwoClient:
-    """A program on the ZWO port: sends one command, reads exactly the reply its kind has."""
-
-    def __init__(self, port: int) -> None:
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=5)
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-
-    def ask(self, command: str, timeout: float = 5.0, kind: ReplyKind | None = None) -> bytes:
-        """The reply to ``command``, read as its kind says (``kind`` for text holding several commands)."""
-        if kind is None:
-            match = protocol.match_command(command[1:-1])
-            kind = match.command.kind if match else ReplyKind.NONE
-        self.sock.sendall(command.encode("latin-1"))
-        if kind is ReplyKind.NONE:
-            return b""
-        data = b""
-        deadline = time.monotonic() + timeout
-        while not reply_complete(kind, data):
-            self.sock.settimeout(max(0.01, deadline - time.monotonic()))
-            chunk = self.sock.recv(1)
-            if not chunk:
-                raise ConnectionError(f"closed while waiting for the reply to {command}")
-            data += chunk
-        return data
-
-    def silent(self, command: str, window: float = 0.4) -> bool:
-        """True if nothing at all comes back within ``window`` (a no-reply command, or a refusal)."""
-        self.sock.sendall(command.encode("latin-1"))
-        self.sock.settimeout(window)
-        try:
-            return self.sock.recv(64) == b""  # b"": closed, also nothing
-        except TimeoutError:
-            return True
-
-    def closed_by_server(self, timeout: float = 5.0) -> bool:
-        self.sock.settimeout(timeout)
-        try:
-            while self.sock.recv(4096):
-                pass
-            return True
-        except (ConnectionResetError, BrokenPipeError):
-            return True
-        except TimeoutError:
-            return False
-
-    def close(self) -> None:
-        self.sock.close()
 
 
 def until(condition: Callable[[], object], timeout: float, what: str) -> None:
@@ -363,87 +312,45 @@ def test_commands_that_affect_everyone_are_refused_unless_allowed(server: Alpaca
     assert zwo.ask(":NSC#") == b"0"  # still guarded
 
 
-def _alpaca_poller(port: int, stop: threading.Event, latencies: list[float], errors: list[str]) -> None:
+def _alpaca_poller(port: int, stop: threading.Event, answered: list[float], errors: list[str]) -> None:
+    """An Alpaca client polling as N.I.N.A. does; ``answered`` gets the time each reply came."""
     client = AlpacaTelescope(f"127.0.0.1:{port}", 0)
     while not stop.is_set():
-        start = time.perf_counter()
         try:
             _ = client.RightAscension
         except Exception as exc:  # any failure is what the test counts
             errors.append(repr(exc))
-        latencies.append(time.perf_counter() - start)
-
-
-def _p99(values: list[float]) -> float:
-    return statistics.quantiles(values, n=100)[98]
+        answered.append(time.monotonic())
 
 
 def test_junk_floods_and_connection_storms_drop_only_the_offender(server: AlpacaZwoServer,
                                                                   alpaca: AlpacaTelescope) -> None:
+    """Each offender is closed alone: a well-behaved program on the port and an Alpaca client are answered
+    throughout. What the offences cost the Alpaca client in latency is measured, not asserted here:
+    benchmarks/zwo_port_flood.py (BENCHMARKS.md)."""
     port = server.zwo_port.port
     stop = threading.Event()
-    baseline: list[float] = []
+    answered: list[float] = []
     errors: list[str] = []
-    poller = threading.Thread(target=_alpaca_poller, args=(server.port, stop, baseline, errors), daemon=True)
-    poller.start()
-    until(lambda: len(baseline) >= 300, 30, "baseline Alpaca polls")
-    stop.set()
-    poller.join()
-    stop.clear()
-    latencies: list[float] = []
-    poller = threading.Thread(target=_alpaca_poller, args=(server.port, stop, latencies, errors), daemon=True)
+    poller = threading.Thread(target=_alpaca_poller, args=(server.port, stop, answered, errors), daemon=True)
     poller.start()
     good = ZwoClient(port)
-    rng = random.Random(16)
     try:
-        # A program mixing junk into real commands is resynchronised and answered correctly (junk after
-        # its first command: before it, junk closes the connection, tests/bridges/test_zwo_port_door.py).
-        junk = ZwoClient(port)
-        assert junk.ask(":GVP#") == b"AM5#"
-        for _ in range(20):
-            junk.sock.sendall(bytes(rng.randrange(256) for _ in range(rng.randrange(1, 40))).replace(b":", b"").
-                              replace(b"#", b""))
-            assert junk.ask("#:GVP#", kind=ReplyKind.TEXT) == b"AM5#"
-        junk.close()
-        # Oversized garbage from a program: a long run without a known command, and a runaway command body.
-        garbage = ZwoClient(port)
-        assert garbage.ask(":GVP#") == b"AM5#"
-        garbage.sock.sendall(b":" + b"x" * 20000)
-        assert garbage.closed_by_server()
-        random_bytes = ZwoClient(port)
-        assert random_bytes.ask(":GVP#") == b"AM5#"
-        random_bytes.sock.sendall(bytes(rng.randrange(256) for _ in range(20000)))
-        assert random_bytes.closed_by_server()
-        # A flood of commands far beyond what any driver sends.
-        flood = ZwoClient(port)
-        flood.sock.sendall(b":GVP#" * 5000)
-        assert flood.closed_by_server()
-        # Garbage dressed up with a real command every 4 KB: dropped for its byte rate.
-        dressed = ZwoClient(port)
-        assert dressed.ask(":GVP#") == b"AM5#"
-        with contextlib.suppress(OSError):
-            for _ in range(100):
-                dressed.sock.sendall(b"x" * 4000 + b":GVP#")
-        assert dressed.closed_by_server()
-        # 100 connections opened and dropped: in parallel (beyond max_clients) and one after another.
-        storm = [socket.create_connection(("127.0.0.1", port), timeout=5) for _ in range(50)]
-        for sock in storm:
-            sock.close()
-        for _ in range(50):
-            sock = socket.create_connection(("127.0.0.1", port), timeout=5)
-            sock.sendall(b":GR#")
-            sock.close()
+        assert good.ask(":GVP#") == b"AM5#"
+        until(lambda: len(answered) >= 10, 30, "the Alpaca client's first polls")
+        began = time.monotonic()
+        offend(port, random.Random(16))
+        ended = time.monotonic()
         assert good.ask(":GVP#") == b"AM5#"
         until(lambda: len(server.zwo_port.status()["programs"]) == 1, 10, "the storm to drain")
     finally:
         stop.set()
         poller.join()
         good.close()
-    status = server.zwo_port.status()
-    assert status["dropped"] >= 4
+    assert server.zwo_port.status()["dropped"] >= 4
     assert errors == []
-    assert len(latencies) > 100
-    assert _p99(latencies) <= max(0.010, 2 * _p99(baseline) + 0.005), (_p99(latencies), _p99(baseline))
+    during = [t for t in answered if began < t < ended]
+    assert len(during) >= 10, f"{len(during)} Alpaca replies in the {ended - began:.1f} s of the offences"
     assert alpaca.Connected
 
 

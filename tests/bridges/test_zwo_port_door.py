@@ -24,9 +24,9 @@ from alpaca_zwo.bridges.zwo_port import BRIDGE_KEY
 from alpaca_zwo.config.settings import EmulatorSettings, ZwoPortSettings
 from alpaca_zwo.server import AlpacaZwoServer
 from tests.bridges.test_admission import HTTP_METHODS
-from tests.bridges.test_zwo_port import ZwoClient
 from tests.conftest import ServerFactory, make_settings
 from tests.support import AlpacaClient, wait_until
+from tests.support.zwo_client import ZwoClient
 
 TIMEOUT = 10
 #: The attack's body: a GOTO, a manual move, tracking, and a new site (which the server would save).

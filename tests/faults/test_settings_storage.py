@@ -237,7 +237,7 @@ def test_zwo_port_site_setters_are_refused_when_the_save_fails(server_factory: S
     """INDI sets the site through the shared ZWO port (``:St``/``:Sg``): a site that cannot be saved is
     refused with the mount's ``0`` and the site stays as it was (before: no reply at all, a traceback
     in the log)."""
-    from tests.bridges.test_zwo_port import ZwoClient
+    from tests.support.zwo_client import ZwoClient
 
     settings = make_settings(zwo_port=ZwoPortSettings(enabled=True, host="127.0.0.1", port=0))
     server = server_factory(settings, config_name="cfg/config.toml")

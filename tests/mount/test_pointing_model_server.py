@@ -171,7 +171,7 @@ def test_a_sync_on_the_shared_zwo_port_is_a_point(server_factory: ServerFactory)
     """INDI and other programs on the shared ZWO port sync with ``:Sr :Sd :CM#``: a point like any other."""
     from alpaca_zwo.config.settings import ZwoPortSettings
     from alpaca_zwo.zwo import wire_values
-    from tests.bridges.test_zwo_port import ZwoClient
+    from tests.support.zwo_client import ZwoClient
 
     emulator = EmulatorSettings(speed=SPEED, baud=0, pointing_errors=REALISTIC)
     server = server_factory(make_settings(emulator=emulator, site=NORTH.settings(),

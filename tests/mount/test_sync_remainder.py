@@ -172,7 +172,7 @@ def test_zwo_port_gr_right_after_sg_is_for_the_new_site(server_factory: ServerFa
     """The citrascope-style check on the shared ZWO port: ``:Sg…#`` then at once ``:GR#`` reads what
     the mount itself reads for the new site (today 480 s of RA off after a 2° change)."""
     from alpaca_zwo.config.settings import ZwoPortSettings
-    from tests.bridges.test_zwo_port import ZwoClient
+    from tests.support.zwo_client import ZwoClient
 
     server = server_factory(make_settings(
         emulator=EmulatorSettings(speed=SPEED, baud=0),
