@@ -12,6 +12,7 @@ import json
 import logging
 import time
 from collections.abc import Iterator
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -289,7 +290,12 @@ def test_roof_must_be_open(rig_factory: RigFactory, sims: AlpacaSimulators) -> N
 
 
 def test_unreachable_monitor_counts_as_unsafe(rig_factory: RigFactory, sims: AlpacaSimulators) -> None:
-    """The monitor's server stops: after unreachable_s without an answer the server parks the mount."""
+    """The monitor's server stops: unreachable_s after its last answer (not sooner) the server says unsafe and
+    parks the mount.
+
+    "Not sooner" is judged from the server's own record (the last answer's time, the verdict's since), not from
+    when the test stopped the monitor: the simulator's graceful stop can take longer than a poll on a busy
+    machine, and its last answer may come before that stop returns (a clean-clone CI run: 1.68 s after it)."""
     unreachable_s = 2.0
     rig = rig_factory(safety=interlock(sims, unreachable_s=unreachable_s), emulator=FAST)
     main = rig.clients[0]
@@ -301,10 +307,14 @@ def test_unreachable_monitor_counts_as_unsafe(rig_factory: RigFactory, sims: Alp
     state = wait_state(main, "unsafe", timeout=unreachable_s + 5)
     unsafe_after = time.monotonic() - gone
     assert "no answer for" in state["reason"], state
-    assert unreachable_s - POLL_S - 0.1 <= unsafe_after <= unreachable_s + 2.0, unsafe_after
+    assert unsafe_after <= unreachable_s + 2.0, unsafe_after
+    view = main.session.get(f"{main.base}/setup/api/safety", timeout=10).json()
+    silent_s = (datetime.fromisoformat(view["since"]) - datetime.fromisoformat(view["monitor"]["at"])).total_seconds()
+    assert unreachable_s - 0.05 <= silent_s <= unreachable_s + 2.0, view  # 0.05 s: the wall and monotonic stamps
     wait_until(lambda: main.value("atpark") is True, 60, "the park")
     assert still(rig), rig.snapshot()
-    report("unreachable monitor", unreachable_s=unreachable_s, unsafe_after_s=unsafe_after, reason=state["reason"])
+    report("unreachable monitor", unreachable_s=unreachable_s, unsafe_after_s=unsafe_after, silent_s=silent_s,
+           reason=state["reason"])
 
 
 def test_a_running_park_is_left_to_finish(rig_factory: RigFactory, sims: AlpacaSimulators) -> None:
