@@ -70,7 +70,9 @@ class Poller(threading.Thread):
 
 def _figures(poller: Poller, seconds: float, cpu_s: float, extra: dict[str, Any]) -> dict[str, Any]:
     ms = sorted(1000.0 * s for s in poller.latencies_s)
-    cuts = statistics.quantiles(ms, n=100) if len(ms) > 1 else ms * 99
+    if len(ms) < 2:
+        raise RuntimeError(f"{len(ms)} answered requests in the window; failures: {poller.errors[:3]}")
+    cuts = statistics.quantiles(ms, n=100)
     return {"requests": len(ms), "errors": len(poller.errors), "first_errors": poller.errors[:3],
             "p50_ms": round(cuts[49], 2), "p95_ms": round(cuts[94], 2), "p99_ms": round(cuts[98], 2),
             "max_ms": round(ms[-1], 2), "server_cpu": round(cpu_s / seconds, 3), **extra}
@@ -125,6 +127,9 @@ def main(argv: list[str] | None = None) -> int:
         server = start_alpaca_zwo(run_dir, emulator.proc.ports["tcp"], None)
         try:
             zwo_port = _zwo_port(server)
+            client = AlpacaClient("127.0.0.1", server.port)
+            client.put("connected", Connected=True)  # as a client does first; the pollers then only read
+            client.close()
             windows = {name: _window(server, zwo_port if name == "offences" else None, args.window, args.seed)
                        for name in WINDOWS}
         finally:
